@@ -1,0 +1,26 @@
+# The two commands of the README. Both bootstrap .venv on a fresh machine first.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.hydrojam-installed
+DEMO_OUT ?= demo-out
+
+.PHONY: demo test bench clean
+
+$(STAMP): pyproject.toml tools/bootstrap.sh
+	PYTHON=$(PYTHON) bash tools/bootstrap.sh $(VENV)
+	touch $(STAMP)
+
+demo: $(STAMP)
+	mkdir -p $(DEMO_OUT)
+	$(BIN)/hydrojam swell --t-min 275 --t-max 315 --t-step 2.5 --plot $(DEMO_OUT)/swelling.png
+	@echo "figure written: $(DEMO_OUT)/swelling.png"
+
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/fe_core.py
+
+clean:
+	rm -rf $(VENV) $(DEMO_OUT) build src/*.egg-info

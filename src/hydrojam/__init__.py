@@ -1,0 +1,34 @@
+"""hydrojam: simulator for active particle jamming actuators (PNIPAM hydrogel particles in an
+elastomer chamber). Units: mm, MPa, mJ, K; chemical potential in k_B T."""
+
+from .materials import KT_OVER_NU_MPA, Hydrogel, HydrogelParams, Material, MaterialResponse, NeoHookean, Yeoh
+from .swelling import (
+    SwellingState,
+    Transition,
+    constrained_swelling,
+    free_swelling,
+    nominal_stresses,
+    reference_chemical_potential,
+    swelling_curve,
+    transition_temperature,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "KT_OVER_NU_MPA",
+    "Hydrogel",
+    "HydrogelParams",
+    "Material",
+    "MaterialResponse",
+    "NeoHookean",
+    "Yeoh",
+    "SwellingState",
+    "Transition",
+    "constrained_swelling",
+    "free_swelling",
+    "nominal_stresses",
+    "reference_chemical_potential",
+    "swelling_curve",
+    "transition_temperature",
+]
