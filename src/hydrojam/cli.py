@@ -1,0 +1,172 @@
+"""Command-line interface: a thin layer over the Python API. Bad input exits with status 2 and
+one line naming the option and its allowed range."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+from pydantic import ValidationError
+from rich.console import Console
+from rich.table import Table
+
+from ._io import write_text_atomic
+from ._validation import describe_error
+from .materials import HydrogelParams
+from .swelling import swelling_curve
+
+try:  # typer >= 0.2x vendors its own click
+    from typer._click import exceptions as _click_exc
+except ImportError:  # pragma: no cover - older typer on top of click
+    from click import exceptions as _click_exc
+
+T_MIN_WATER, T_MAX_WATER = 273.15, 373.15
+
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    help="hydrojam: simulate active particle jamming actuators (PNIPAM hydrogel particles in an elastomer chamber).",
+)
+
+
+class InputError(Exception):
+    """Invalid user input: reported as one line, exit status 2."""
+
+
+@app.callback()
+def _root() -> None:
+    """Units: mm, MPa, K; chemical potential mu in k_B T."""
+
+
+def _temperatures(temperatures: str | None, t_min, t_max, t_step) -> list[float]:
+    if temperatures is not None and any(v is not None for v in (t_min, t_max, t_step)):
+        raise InputError("--temperatures: give either a list or --t-min/--t-max/--t-step, not both")
+    if temperatures is not None:
+        Ts = []
+        for tok in temperatures.split(","):
+            try:
+                Ts.append(float(tok))
+            except ValueError:
+                raise InputError(
+                    f"--temperatures: {tok.strip()!r} is not a number; give comma-separated temperatures in K "
+                    f"within [{T_MIN_WATER}, {T_MAX_WATER}]"
+                ) from None
+    else:
+        lo = 275.0 if t_min is None else t_min
+        hi = 315.0 if t_max is None else t_max
+        step = 5.0 if t_step is None else t_step
+        if not step > 0:
+            raise InputError(f"--t-step: must be > 0 K (got {step})")
+        if hi < lo:
+            raise InputError(f"--t-max: must be >= --t-min ({lo} K) (got {hi})")
+        Ts = list(lo + step * np.arange(int(math.floor((hi - lo) / step + 1e-9)) + 1))
+    for T in Ts:
+        if not (T_MIN_WATER <= T <= T_MAX_WATER):
+            raise InputError(
+                f"temperature {T} K is outside liquid water's range [{T_MIN_WATER}, {T_MAX_WATER}] K "
+                "(--temperatures / --t-min / --t-max)"
+            )
+    return Ts
+
+
+@app.command()
+def swell(
+    temperatures: Optional[str] = typer.Option(None, "--temperatures", help="Comma-separated temperatures [K], e.g. 275,285,295."),
+    t_min: Optional[float] = typer.Option(None, "--t-min", help="Lowest temperature of a range [K] (default 275)."),
+    t_max: Optional[float] = typer.Option(None, "--t-max", help="Highest temperature of a range [K] (default 315)."),
+    t_step: Optional[float] = typer.Option(None, "--t-step", help="Temperature step of a range [K] (default 5)."),
+    mu: float = typer.Option(0.0, "--mu", help="Solvent chemical potential [k_B T]; 0 = pure water; must be <= 0."),
+    nnu: float = typer.Option(0.01, "--nnu", help="N nu: crosslink density times solvent molecule volume [-], in (0, 1]."),
+    lambda0: float = typer.Option(1.5, "--lambda0", help="As-prepared swelling stretch lambda0 [-], > 1."),
+    t0: float = typer.Option(300.0, "--t0", help="Temperature of the as-prepared state T0 [K]."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object instead of a table."),
+    as_csv: bool = typer.Option(False, "--csv", help="Print a CSV table instead of the rich table."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write the swelling curve to this PNG file."),
+) -> None:
+    """Free swelling of the PNIPAM gel: equilibrium stretch against temperature, and the transition."""
+    if as_json and as_csv:
+        raise InputError("--json and --csv: choose one output format")
+    try:
+        params = HydrogelParams(n=nnu, lambda0=lambda0, T0=t0)
+    except ValidationError as err:
+        raise InputError(describe_error(err, HydrogelParams, {"n": "--nnu", "lambda0": "--lambda0", "T0": "--t0"})) from None
+    if not mu <= 0:
+        raise InputError(f"--mu: must be <= 0 k_B T (pure water is 0; above it a gel swells without bound) (got {mu})")
+    if plot is not None and plot.suffix.lower() != ".png":
+        raise InputError(f"--plot: the figure file must end in .png (got {str(plot)!r})")
+    Ts = _temperatures(temperatures, t_min, t_max, t_step)
+
+    transition, states = swelling_curve(params, mu, Ts)
+    points = [
+        {"T": s.T, "stretch": s.stretch, "stretch_rel": s.stretch_rel, "J": s.J, "branch": s.branch} for s in states
+    ]
+    if plot is not None:
+        from .plots import plot_swelling_curve
+
+        plot_swelling_curve(params, mu, states, transition, plot)
+
+    if as_json:
+        out = {
+            "mu": mu,
+            "mu0": params.mu0,
+            "transition_temperature": transition.T,
+            "transition_discontinuous": transition.discontinuous,
+            "params": params.model_dump(),
+            "points": points,
+        }
+        print(json.dumps(out, indent=2))
+    elif as_csv:
+        buf = io.StringIO()
+        w = csv.DictWriter(buf, fieldnames=list(points[0]))
+        w.writeheader()
+        w.writerows(points)
+        sys.stdout.write(buf.getvalue())
+    else:
+        console = Console()
+        table = Table(title=f"PNIPAM free swelling at mu = {mu:g} kT (N nu = {nnu:g}, lambda0 = {lambda0:g}, T0 = {t0:g} K)")
+        for col in ("T [K]", "stretch (dry)", "stretch / lambda0", "J = V/V_dry", "branch"):
+            table.add_column(col, justify="right")
+        for p in points:
+            table.add_row(f"{p['T']:.2f}", f"{p['stretch']:.4f}", f"{p['stretch_rel']:.4f}", f"{p['J']:.3f}", p["branch"])
+        console.print(table)
+        kind = "discontinuous" if transition.discontinuous else "continuous"
+        console.print(f"mu0 (stress-free as-prepared state) = {params.mu0:.5f} kT; "
+                      f"volume phase transition at {transition.T:.2f} K ({kind})")
+    if plot is not None and not as_json and not as_csv:
+        Console().print(f"figure written: {plot}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``hydrojam`` command; returns the exit status."""
+    try:
+        app(args=argv, standalone_mode=False)
+    except InputError as err:
+        print(f"hydrojam: error: {err}", file=sys.stderr)
+        return 2
+    except _click_exc.UsageError as err:
+        if err.format_message():  # empty when the help was printed for a bare `hydrojam`
+            print(f"hydrojam: error: {err.format_message()}", file=sys.stderr)
+        return 2
+    except _click_exc.Abort:
+        print("hydrojam: aborted", file=sys.stderr)
+        return 130
+    except _click_exc.Exit as ex:
+        return ex.exit_code
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
+
+
+def run() -> None:
+    """Console-script wrapper: exit with :func:`main`'s status."""
+    sys.exit(main())
