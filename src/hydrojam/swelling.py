@@ -80,6 +80,8 @@ def _energy(params, mu, T, lam):
 def _minima(params: HydrogelParams, mu: float, T: float, held: tuple[float, ...]):
     """All local minima (t, J, w) of w over the free stretch t, equal in the 3 - len(held) free directions."""
     k = 3 - len(held)
+    if k == 3 and mu > 0:  # w ~ 3n/2 l^2 - mu l^3 -> -inf: a free gel swells without bound
+        raise ValueError(f"no equilibrium: a free gel swells without bound at mu={mu} kT > 0 (mu must be <= 0)")
     Ph = float(np.prod(held)) if held else 1.0
     J = 1.0 + _GRID
 
@@ -165,5 +167,5 @@ def constrained_swelling(params: HydrogelParams, mu: float, T: float, held) -> S
     held = tuple(float(h) for h in np.atleast_1d(held))
     if not 1 <= len(held) <= 2 or min(held) <= 0:
         raise ValueError("held must be one or two positive stretches")
-    tr = transition_temperature(params, mu)
-    return _equilibrium(params, mu, T, held, tr.T)
+    T_c = transition_temperature(params, mu).T if mu <= 0 else np.inf  # no free-gel transition above 0
+    return _equilibrium(params, mu, T, held, T_c)
