@@ -1,0 +1,101 @@
+"""The one protocol of everything the solver minimises: an *energy term* (DESIGN.md section 8).
+
+A term gives, for nodal positions ``x`` of shape (n_nodes, d) [mm], its energy [mJ] (``+inf`` for
+an inadmissible state), the gradient [N] as a flat vector of length n_nodes*d (dof = node*d +
+component), the Hessian [N/mm] as a sparse matrix, and may cap a step ``x + alpha dx`` (contact
+CCD). The solver sums terms and knows nothing else. External loads are terms too (minus their
+work), so a new physics is a new term, not a branch in the solver.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+import scipy.sparse as sp
+
+from .elements import ELEMENTS, facet_measure
+
+
+@runtime_checkable
+class EnergyTerm(Protocol):
+    """A contribution to the total potential energy."""
+
+    def energy(self, x: np.ndarray) -> float:
+        """Energy [mJ] at positions x (n, d) [mm]; +inf if x is inadmissible."""
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        """dE/dx [N], flat (n*d,)."""
+
+    def hessian(self, x: np.ndarray, project: bool = False) -> sp.csr_matrix:
+        """d2E/dx2 [N/mm], (n*d, n*d); ``project``: made positive semi-definite."""
+
+    def max_step(self, x: np.ndarray, dx: np.ndarray) -> float:
+        """Largest alpha in (0, 1] such that x + alpha dx is safe for this term (1 if no limit)."""
+
+
+class LinearTerm:
+    """A term linear in x: E = -f . (x - X), the negative work of dead nodal forces f [N]."""
+
+    def __init__(self, forces: np.ndarray, reference: np.ndarray):
+        self.forces = np.asarray(forces, dtype=float).reshape(reference.shape)
+        self.reference = np.asarray(reference, dtype=float)
+
+    def energy(self, x):
+        return -float(np.sum(self.forces * (x - self.reference)))
+
+    def gradient(self, x):
+        return -self.forces.ravel()
+
+    def hessian(self, x, project=False):
+        n = x.size
+        return sp.csr_matrix((n, n))
+
+    def max_step(self, x, dx):
+        return 1.0
+
+
+def nodal_load(reference: np.ndarray, nodes, force) -> LinearTerm:
+    """Dead force ``force`` [N] (length d; per unit thickness in 2D: N/mm) on each of ``nodes``."""
+    f = np.zeros_like(reference, dtype=float)
+    np.add.at(f, np.asarray(nodes), np.asarray(force, dtype=float))
+    return LinearTerm(f, reference)
+
+
+def surface_load(reference: np.ndarray, facets: np.ndarray, traction, facet_type: str | None = None) -> LinearTerm:
+    """Dead traction ``traction`` [MPa] (length d) on reference boundary facets (nf, nfn).
+
+    Consistent nodal forces f_a = sum over facets of the integral of N_a t dA (reference area).
+    """
+    facets = np.asarray(facets)
+    d = reference.shape[1]
+    if facet_type is None:
+        facet_type = {(2, 2): "line2", (2, 3): "line3", (3, 3): "tri3", (3, 6): "tri6"}[(d, facets.shape[1])]
+    fe = ELEMENTS[facet_type]
+    N, dA, _ = facet_measure(fe, reference[facets])
+    t = np.asarray(traction, dtype=float)
+    nodal = np.einsum("qa,fq->fa", N, dA)  # integral of N_a over each facet
+    f = np.zeros_like(reference, dtype=float)
+    np.add.at(f, facets.ravel(), (nodal.ravel()[:, None] * t[None, :]))
+    return LinearTerm(f, reference)
+
+
+@dataclass(frozen=True)
+class ScaledTerm:
+    """``scale`` times another term (e.g. a load ramped with the load parameter s)."""
+
+    term: EnergyTerm
+    scale: float
+
+    def energy(self, x):
+        return self.scale * self.term.energy(x)
+
+    def gradient(self, x):
+        return self.scale * self.term.gradient(x)
+
+    def hessian(self, x, project=False):
+        return self.scale * self.term.hessian(x, project)
+
+    def max_step(self, x, dx):
+        return self.term.max_step(x, dx)
