@@ -210,7 +210,7 @@ def minimize(
             dx = -g * (options.rtol + r) / (r * max(abs(Hff.diagonal()).max(), 1e-300))
             slope = float(g @ dx)
         # a decrement at round-off of the energy: nothing left to gain
-        if -slope <= 1e-14 * (abs(E) + 1.0) and r <= options.stall_factor * tol:
+        if -slope <= 1e-14 * abs(E) and r <= options.stall_factor * tol:
             return NewtonResult(xs.copy(), True, it, r, E, "converged (decrement at round-off)", residuals, tm)
         step = np.zeros_like(x)
         step[fidx] = dx
@@ -218,7 +218,7 @@ def minimize(
         alpha = min([1.0] + [t.max_step(xs, step.reshape(shape)) for t in terms])
         tm.step_cap += time.perf_counter() - t0
         t0 = time.perf_counter()
-        slack = 1e-12 * (abs(E) + 1.0)
+        slack = 1e-12 * abs(E)  # energy round-off: lets full Newton steps through near convergence
         while alpha >= options.min_alpha:
             xn = x + alpha * step
             En = _sum_energy(terms, xn.reshape(shape))
