@@ -410,3 +410,60 @@ def ball_octant(radius: float, size: float, order: int = 2) -> Mesh:
         _add_groups(3, {"body": body}, {"xsym": sides["xsym"], "ysym": sides["ysym"], "zsym": sides["zsym"],
                                          "sphere": sphere})
         return _generate(3, order)
+
+
+def _refine_near(point, fine_size: float, fine_radius: float, size: float) -> None:
+    """Mesh size fine_size within fine_radius of point, growing linearly to size at 3 fine_radius."""
+    gmsh.option.setNumber("Mesh.MeshSizeMin", min(fine_size, size))
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    f = gmsh.model.mesh.field.add("MathEval")
+    x, y = float(point[0]), float(point[1])
+    z = float(point[2]) if len(point) > 2 else 0.0
+    r = f"Sqrt((x-({x}))^2+(y-({y}))^2+(z-({z}))^2)"
+    gmsh.model.mesh.field.setString(
+        f, "F", f"Min({size}, Max({fine_size}, {fine_size} + ({size}-{fine_size})*({r}-{fine_radius})/(2*{fine_radius})))"
+    )
+    gmsh.model.mesh.field.setAsBackgroundMesh(f)
+
+
+def half_disk(radius: float, size: float, fine_size: float, fine_radius: float, order: int = 2) -> Mesh:
+    """Lower half disk (z <= 0) of ``radius`` (mm) about the origin, refined to ``fine_size``
+    within ``fine_radius`` of its bottom point (0, -radius): a cylinder for Hertz contact.
+    Cell group "body"; facet groups "top" (the flat face z = 0) and "arc"."""
+    with gmsh_session():
+        _mesh_sizes(size)
+        d = gmsh.model.occ.addDisk(0.0, 0.0, 0.0, radius, radius)
+        cut = gmsh.model.occ.addRectangle(-2 * radius, -2 * radius, 0.0, 4 * radius, 2 * radius)
+        (out, _) = gmsh.model.occ.intersect([(2, d)], [(2, cut)])
+        gmsh.model.occ.synchronize()
+        body = [t for dd, t in out if dd == 2]
+        curves = gmsh.model.getBoundary([(2, t) for t in body], oriented=False)
+        top = [t for _, t in curves if abs(_bbox(1, t)[0, 1]) < 1e-6 * radius and abs(_bbox(1, t)[1, 1]) < 1e-6 * radius]
+        arc = [t for _, t in curves if t not in top]
+        _add_groups(2, {"body": body}, {"top": top, "arc": arc})
+        _refine_near((0.0, -radius), fine_size, fine_radius, size)
+        return _generate(2, order)
+
+
+def quarter_hemisphere(radius: float, size: float, fine_size: float, fine_radius: float, order: int = 2) -> Mesh:
+    """Quarter of the lower hemisphere (x, y >= 0, z <= 0) of ``radius`` (mm), refined near its
+    bottom pole (0, 0, -radius): a sphere for Hertz contact with two symmetry planes.
+    Cell group "body"; facet groups "top" (z = 0), "xsym" (x = 0), "ysym" (y = 0), "sphere"."""
+    with gmsh_session():
+        _mesh_sizes(size)
+        v = gmsh.model.occ.addSphere(0.0, 0.0, 0.0, radius)
+        cut = gmsh.model.occ.addBox(0.0, 0.0, -2 * radius, 2 * radius, 2 * radius, 2 * radius)
+        (out, _) = gmsh.model.occ.intersect([(3, v)], [(3, cut)])
+        gmsh.model.occ.synchronize()
+        body = [t for dd, t in out if dd == 3]
+        faces = gmsh.model.getBoundary([(3, t) for t in body], oriented=False)
+        sides = _classify_sides(faces, (0.0, 0.0, -radius), (radius, radius, 0.0),
+                                ("xsym", "_", "ysym", "__", "___", "top"), 1e-6 * radius)
+        planes = set(sides["xsym"]) | set(sides["ysym"]) | set(sides["top"])
+        sphere = [t for _, t in faces if t not in planes]
+        _add_groups(3, {"body": body}, {"xsym": sides["xsym"], "ysym": sides["ysym"], "top": sides["top"],
+                                         "sphere": sphere})
+        _refine_near((0.0, 0.0, -radius), fine_size, fine_radius, size)
+        return _generate(3, order)

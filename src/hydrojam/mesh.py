@@ -458,3 +458,27 @@ class Mesh:
     def __repr__(self) -> str:
         return (f"Mesh({self.cell_type}, n_nodes={self.n_nodes}, n_cells={self.n_cells}, "
                 f"cell_groups={sorted(self.cell_groups)}, facet_groups={sorted(self.facet_groups)})")
+
+
+def merge(parts: dict[str, Mesh]) -> Mesh:
+    """Separate meshes side by side in one Mesh (no node is shared: separate bodies).
+
+    Groups are renamed ``"<part>"`` (all cells of a part), ``"<part>/<group>"`` for each cell and
+    facet group. All parts must have the same cell type.
+    """
+    types = {m.cell_type for m in parts.values()}
+    if len(types) != 1:
+        raise ValueError(f"cannot merge meshes of different cell types {sorted(types)}")
+    points, cells, cgroups, fgroups = [], [], {}, {}
+    n_nodes = n_cells = 0
+    for name, m in parts.items():
+        points.append(m.points)
+        cells.append(m.cells + n_nodes)
+        cgroups[name] = np.arange(n_cells, n_cells + m.n_cells)
+        for g, idx in m.cell_groups.items():
+            cgroups[f"{name}/{g}"] = idx + n_cells
+        for g, fac in m.facet_groups.items():
+            fgroups[f"{name}/{g}"] = fac + n_nodes
+        n_nodes += m.n_nodes
+        n_cells += m.n_cells
+    return Mesh(np.vstack(points), np.vstack(cells), types.pop(), cgroups, fgroups)

@@ -192,13 +192,18 @@ def minimize(
         tm.assembly += time.perf_counter() - t0
         t0 = time.perf_counter()
         dx = None
-        for shift in (0.0, 1e-10, 1e-6):
+        # a singular Hessian (a body floating free before it touches anything) is regularised by
+        # a shift that only changes the step, never the equilibrium (Levenberg-Marquardt)
+        diag = abs(Hff.diagonal()).mean()
+        for shift in (0.0, 1e-10, 1e-8, 1e-6, 1e-4):
             try:
-                K = Hff if shift == 0 else Hff + shift * abs(Hff.diagonal()).mean() * sp.eye(len(fidx), format="csr")
-                dx = solver.solve(K, -g)
-                break
+                K = Hff if shift == 0 else Hff + shift * diag * sp.eye(len(fidx), format="csr")
+                cand = solver.solve(K, -g)
             except LinearSolveError:
                 continue
+            if np.linalg.norm(K @ cand + g) <= 1e-6 * r:
+                dx = cand
+                break
         tm.linear_solve += time.perf_counter() - t0
         if dx is None:
             return NewtonResult(xs.copy(), False, it, r, E, "linear solve failed (singular Hessian)", residuals, tm)
@@ -283,26 +288,32 @@ class PathResult:
 
 
 def _predictor(problem, terms, x, x_bc, free, solver):
-    """Linearised response of the free DOFs to a change of prescribed DOFs (x -> x_bc on them)."""
+    """Start of a load step whose prescribed DOFs move (x -> x_bc on them): the linearised response
+    of the free DOFs, shortened until the move from x is admissible and collision-free (every
+    term's step cap, so contact CCD sees the predictor like any Newton step). None if even moving
+    the prescribed DOFs alone is not."""
+    shape = problem.X.shape
     delta = x_bc - x
     if not np.any(delta):
         return x_bc
     fidx = np.flatnonzero(free)
-    xs = x.reshape(problem.X.shape)
+    xs = x.reshape(shape)
+    du = None
     H = sp.csr_matrix(sum(t.hessian(xs, True) for t in terms))
-    rhs = -(H[fidx] @ delta)
     try:
-        du = solver.solve(H[fidx][:, fidx], rhs)
+        du = solver.solve(H[fidx][:, fidx], -(H[fidx] @ delta))
     except LinearSolveError:
-        return x_bc
-    out = x_bc.copy()
-    out[fidx] += du
-    for scale in (1.0, 0.5, 0.25, 0.0):  # keep the predictor admissible
+        pass
+    for scale in (1.0, 0.5, 0.25, 0.0) if du is not None else (0.0,):
         trial = x_bc.copy()
-        trial[fidx] += scale * du
-        if np.isfinite(_sum_energy(terms, trial.reshape(problem.X.shape))):
+        if scale:
+            trial[fidx] += scale * du
+        step = (trial - x).reshape(shape)
+        if min([1.0] + [t.max_step(xs, step) for t in terms]) < 1.0:
+            continue
+        if np.isfinite(_sum_energy(terms, trial.reshape(shape))):
             return trial
-    return x_bc
+    return None
 
 
 def solve_path(
@@ -345,8 +356,15 @@ def solve_path(
         terms = problem.terms(s_try)
         x_bc = x.copy()
         problem.apply_dirichlet(x_bc, s_try)
+        for t in terms:  # lagged quantities (friction) freeze at the start of the step
+            if hasattr(t, "begin_step"):
+                t.begin_step(x.reshape(problem.X.shape))
         x_start = _predictor(problem, terms, x, x_bc, free, solver)
-        res = minimize(terms, x_start.reshape(problem.X.shape), free, problem.force_scale, options.newton, solver)
+        if x_start is None:
+            res = NewtonResult(x.reshape(problem.X.shape), False, 0, np.inf, np.inf,
+                               "the prescribed displacement increment is not admissible", [], Timings())
+        else:
+            res = minimize(terms, x_start.reshape(problem.X.shape), free, problem.force_scale, options.newton, solver)
         tm.add(res.timings)
         if res.converged:
             s = s_try

@@ -1,0 +1,240 @@
+"""Intersection-free contact between bodies through IPC (DESIGN.md section 5).
+
+Every call to the IPC Toolkit (``ipctk``, pinned 1.6.1) lives in this module, so an upgrade is one
+file. Contact is an energy term: a smooth log barrier on the distance between boundary primitives
+of different bodies, area-weighted ("convergent" formulation) and in physical units, so the
+barrier stiffness ``kappa`` is a pressure [MPa]:
+
+    E_c = kappa * sum_k w_k b(d_k),   b(d) = -(d^2 - dhat^2)^2 ln(d^2/dhat^2) / dhat^3 (ipctk),
+
+with w_k the boundary area (2D: length) attached to each collision. The contact pressure at gap
+d is kappa |b'(d)|: zero beyond the activation distance ``dhat`` [mm], unbounded as d -> 0.
+Every line-search step is capped by continuous collision detection, so no accepted state
+interpenetrates. Optional Coulomb friction is IPC's lagged smoothed friction potential, with
+normal forces and tangent bases frozen at the start of each load step (``begin_step``).
+
+Quadratic elements enter the collision mesh as their boundary nodes joined by straight
+segments (2D) or split triangles (3D). Only primitives of *different* components (a component
+is a body, or bodies bonded by shared nodes) can collide.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import ipctk
+import numpy as np
+import scipy.sparse as sp
+
+# corner/mid-node splits of quadratic facets into straight primitives (meshio facet order)
+_SPLIT = {
+    2: np.array([[0, 1]]),
+    3: np.array([[0, 2], [2, 1]]),  # line3: corners 0, 1; mid 2
+}
+_SPLIT_TRI = {
+    3: np.array([[0, 1, 2]]),
+    6: np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]]),  # tri6: corners 0-2; mids (01) (12) (20)
+}
+
+
+def collision_primitives(facets: np.ndarray, dim: int) -> np.ndarray:
+    """Straight collision primitives (segments in 2D, triangles in 3D) of boundary facets.
+
+    Quadratic facets are split at their mid-nodes, keeping the facets' orientation.
+    """
+    facets = np.asarray(facets, dtype=np.int64)
+    table = (_SPLIT if dim == 2 else _SPLIT_TRI)[facets.shape[1]]
+    return facets[:, table].reshape(-1, table.shape[1])
+
+
+@dataclass(frozen=True)
+class ContactSettings:
+    """Barrier and friction parameters.
+
+    dhat: activation distance [mm]; kappa: barrier stiffness [MPa] (the contact pressure scale);
+    friction: Coulomb coefficient [-] (0: frictionless); friction_eps: slip displacement below
+    which friction is static [mm] (IPC's eps_v times the step); pair_friction: coefficients for
+    particular component pairs {(a, b): mu}, overriding ``friction``.
+    """
+
+    dhat: float
+    kappa: float
+    friction: float = 0.0
+    friction_eps: float | None = None
+    pair_friction: dict | None = None
+
+    def __post_init__(self):
+        if not self.dhat > 0:
+            raise ValueError(f"contact dhat must be > 0 mm (got {self.dhat})")
+        if not self.kappa > 0:
+            raise ValueError(f"contact kappa must be > 0 MPa (got {self.kappa})")
+        if self.friction < 0:
+            raise ValueError(f"friction coefficient must be >= 0 (got {self.friction})")
+
+
+def default_settings(
+    X: np.ndarray,
+    facets: np.ndarray,
+    shear_modulus: float,
+    dhat: float | None = None,
+    kappa: float | None = None,
+    **kw,
+) -> ContactSettings:
+    """Principled defaults: dhat = 1% of the mean collision-edge length (mesh-relative, so the
+    barrier layer is a small fraction of an element), kappa = 10 x the largest shear modulus of
+    the bodies in contact [MPa], so that contact pressures of the order of the material's own
+    stresses are carried at gaps well inside dhat. Both overridable."""
+    if dhat is None:
+        prims = collision_primitives(facets, X.shape[1])
+        edges = prims if X.shape[1] == 2 else np.concatenate([prims[:, [0, 1]], prims[:, [1, 2]], prims[:, [2, 0]]])
+        h = float(np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1).mean())
+        dhat = 0.01 * h
+    if kappa is None:
+        kappa = 10.0 * shear_modulus
+    return ContactSettings(dhat=dhat, kappa=kappa, **kw)
+
+
+def _component_filter(components: np.ndarray):
+    """An ipctk filter (in C++) that blocks pairs inside one component: chain each component's
+    vertices with fake edges and let ipctk's connected-components filter do the rest."""
+    chain = []
+    for c in np.unique(components):
+        ids = np.flatnonzero(components == c)
+        if len(ids) > 1:
+            chain.append(np.stack([ids[:-1], ids[1:]], axis=1))
+    if not chain:
+        return None
+    return ipctk.make_connected_components_filter(np.asfortranarray(np.concatenate(chain).astype(np.int32)))
+
+
+class Contact:
+    """IPC barrier (and optional lagged friction) between the boundaries of different components.
+
+    X: reference positions (n_nodes, d) [mm]; facets: boundary facets (nf, nfn) in full node numbers
+    (meshio order, outward); components: (n_nodes,) component id of every node.
+    """
+
+    def __init__(self, X: np.ndarray, facets: np.ndarray, components: np.ndarray, settings: ContactSettings):
+        self.X = np.asarray(X, dtype=float)
+        self.dim = self.X.shape[1]
+        self.settings = settings
+        prims = collision_primitives(facets, self.dim).astype(np.int32)
+        V = np.asfortranarray(self.X)
+        if self.dim == 2:
+            self._cm = ipctk.CollisionMesh.build_from_full_mesh(V, np.asfortranarray(prims))
+        else:
+            faces = np.asfortranarray(prims)
+            self._cm = ipctk.CollisionMesh.build_from_full_mesh(V, np.asfortranarray(ipctk.edges(faces)), faces)
+        self.vertex_ids = np.array([self._cm.to_full_vertex_id(i) for i in range(self._cm.num_vertices)], dtype=np.int64)
+        self.components = np.asarray(components)[self.vertex_ids]
+        flt = _component_filter(self.components)
+        if flt is not None:
+            self._cm.can_collide = flt
+        self._barrier = ipctk.BarrierPotential(settings.dhat, settings.kappa, True)
+        self._cache_key = None
+        self._cache = None
+        self._friction = None
+        if settings.friction > 0 or settings.pair_friction:
+            eps = settings.friction_eps if settings.friction_eps is not None else 1e-2 * settings.dhat
+            self._friction_potential = ipctk.FrictionPotential(eps)
+        self.ndof = self.X.size
+        self.always_project = False  # measured: projecting the barrier Hessian doubled Newton iterations and failed a Hertz test
+
+    # -- collision sets ------------------------------------------------------------------------
+
+    def _vertices(self, x: np.ndarray) -> np.ndarray:
+        return np.asfortranarray(np.asarray(x, dtype=float).reshape(-1, self.dim)[self.vertex_ids])
+
+    def _collisions(self, x: np.ndarray):
+        V = self._vertices(x)
+        key = V.tobytes()
+        if key != self._cache_key:
+            col = ipctk.NormalCollisions()
+            col.use_area_weighting = True
+            col.build(self._cm, V, self.settings.dhat)
+            self._cache_key, self._cache = key, (V, col)
+        return self._cache
+
+    def begin_step(self, x: np.ndarray) -> None:
+        """Freeze normal forces and tangent bases for friction at the start of a load step."""
+        if not hasattr(self, "_friction_potential"):
+            return
+        V, col = self._collisions(x)
+        tc = ipctk.TangentialCollisions()
+        tc.build(self._cm, V, col, self._barrier, float(self.settings.friction))
+        if self.settings.pair_friction:
+            table = {tuple(sorted(k)): v for k, v in self.settings.pair_friction.items()}
+            for group in (tc.vv_collisions, tc.ev_collisions, tc.ee_collisions, tc.fv_collisions):
+                for c in group:
+                    comps = sorted({int(self.components[v]) for v in c.vertex_ids(self._cm.edges, self._cm.faces) if v >= 0})
+                    mu = table.get(tuple(comps[:2]), self.settings.friction) if len(comps) >= 2 else self.settings.friction
+                    c.mu_s = mu
+                    c.mu_k = mu
+        self._friction = (V.copy(), tc)
+
+    # -- energy term ---------------------------------------------------------------------------
+
+    def energy(self, x: np.ndarray) -> float:
+        V, col = self._collisions(x)
+        e = float(self._barrier(col, self._cm, V))
+        if self._friction is not None:
+            V0, tc = self._friction
+            e += float(self._friction_potential(tc, self._cm, np.asfortranarray(V - V0)))
+        return e if np.isfinite(e) else np.inf
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        V, col = self._collisions(x)
+        g = self._barrier.gradient(col, self._cm, V)
+        if self._friction is not None:
+            V0, tc = self._friction
+            g = g + self._friction_potential.gradient(tc, self._cm, np.asfortranarray(V - V0))
+        return self._cm.to_full_dof(g)
+
+    def hessian(self, x: np.ndarray, project: bool = False) -> sp.csr_matrix:
+        V, col = self._collisions(x)
+        method = ipctk.PSDProjectionMethod.CLAMP if (project or self.always_project) else ipctk.PSDProjectionMethod.NONE
+        H = self._barrier.hessian(col, self._cm, V, method)
+        if self._friction is not None:
+            V0, tc = self._friction
+            H = H + self._friction_potential.hessian(tc, self._cm, np.asfortranarray(V - V0), method)
+        return sp.csr_matrix(self._cm.to_full_dof(sp.csc_matrix(H)))
+
+    def max_step(self, x: np.ndarray, dx: np.ndarray) -> float:
+        """Largest collision-free fraction of the step x -> x + dx (continuous collision detection)."""
+        V0 = self._vertices(x)
+        V1 = self._vertices(np.asarray(x) + np.asarray(dx).reshape(np.shape(x)))
+        return float(ipctk.compute_collision_free_stepsize(self._cm, V0, V1))
+
+    # -- diagnostics ---------------------------------------------------------------------------
+
+    def minimum_distance(self, x: np.ndarray) -> float:
+        """Smallest distance between primitives of different components within reach [mm]
+        (``inf`` when none is closer than dhat)."""
+        V, col = self._collisions(x)
+        if len(col) == 0:
+            return np.inf
+        return float(np.sqrt(col.compute_minimum_distance(self._cm, V)))
+
+    def has_intersections(self, x: np.ndarray) -> bool:
+        """Whether any two boundaries of different components intersect at x."""
+        return bool(ipctk.has_intersections(self._cm, self._vertices(x)))
+
+    def nodal_forces(self, x: np.ndarray) -> np.ndarray:
+        """Contact forces on every node (n_nodes, d) [N; N/mm in 2D]: minus the barrier gradient
+        (friction included when active)."""
+        return -self.gradient(x).reshape(-1, self.dim)
+
+    def contact_pairs(self, x: np.ndarray) -> list[tuple[int, int]]:
+        """Sorted unique component pairs with at least one active collision at x."""
+        V, col = self._collisions(x)
+        pairs = set()
+        for i in range(len(col)):
+            ids = [v for v in col[i].vertex_ids(self._cm.edges, self._cm.faces) if v >= 0]
+            comps = sorted({int(self.components[v]) for v in ids})
+            if len(comps) >= 2:
+                pairs.add((comps[0], comps[1]))
+        return sorted(pairs)
+
+    def active(self, x: np.ndarray) -> int:
+        """Number of active collision primitives pairs (within dhat) at x."""
+        return len(self._collisions(x)[1])
