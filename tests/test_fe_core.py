@@ -137,7 +137,7 @@ def test_uniaxial_tension_matches_analytic_stress_stretch_curve():
     def record(s, x, rec):
         seen.append((s, S.gradient(x).reshape(-1, 3)[g("xmax"), 0].sum()))
 
-    res = solve_path(prob, PathOptions(ds0=0.2, ds_max=0.2), callback=record)
+    res = solve_path(prob, PathOptions(ds0=0.2, ds_max=0.2, newton=NewtonOptions(rtol=1e-10)), callback=record)
     assert res.converged and len(seen) >= 5
     G, K = mat.shear_modulus, mat.bulk_modulus
     for s, reaction in seen:
@@ -244,8 +244,10 @@ def test_newton_converges_quadratically():
     bcs = [fixed(g("bottom"), 2), fixed(g("left"), 2, [0])]
     prob = Problem(mesh.points, gel_terms(S), bcs, force_scale=GEL.shear_modulus_ref)
     free = prob.free_mask()
-    start = minimize(gel_terms(S)(0.5), mesh.points, free, prob.force_scale).x
-    terms = gel_terms(S)(0.6)
+    first = minimize(gel_terms(S)(0.1), mesh.points, free, prob.force_scale)
+    assert first.converged  # stable regime: no swelling-induced creasing of the layer yet
+    start = first.x
+    terms = gel_terms(S)(0.15)
     opts = NewtonOptions(rtol=1e-13, projection="never")
     final = minimize(terms, start, free, prob.force_scale, opts)
     assert final.converged

@@ -140,11 +140,20 @@ class Solid:
 
     def gradient(self, x: np.ndarray) -> np.ndarray:
         out = np.zeros(self.ndof)
+        flux = np.zeros(self.ndof)
         for b, g in zip(self.blocks, self._geoms):
             P = b.material.evaluate(self._F(x, g), tangent=False).stress
             fe = np.einsum("eq,eqij,eqaj->eai", g.dV, P, g.dNdX, optimize=True)
             out += np.bincount(g.edofs.ravel(), weights=fe.ravel(), minlength=self.ndof)
+            flux += np.bincount(g.edofs.ravel(), weights=np.abs(fe).ravel(), minlength=self.ndof)
+        self._flux = flux
         return out
+
+    def force_flux(self, x: np.ndarray) -> np.ndarray:
+        """Nodal sums of |element internal forces| [N], per DOF: the forces flowing through the
+        body without the cancellation of assembly (large in a swollen body whose net force is 0)."""
+        self.gradient(x)
+        return self._flux
 
     def element_forces(self, x: np.ndarray) -> list[np.ndarray]:
         """Internal nodal forces of every element, per block [(ne, nen, d)] [N]."""

@@ -99,3 +99,17 @@ class ScaledTerm:
 
     def max_step(self, x, dx):
         return self.term.max_step(x, dx)
+
+
+def body_load(reference: np.ndarray, cells: np.ndarray, element, force_density) -> LinearTerm:
+    """Dead body force ``force_density`` [N/mm^3] (length d), e.g. density x gravity, on cells
+    (ne, nen) of ``element``: consistent nodal forces f_a = integral of N_a b dV."""
+    from .elements import physical_gradients
+
+    cells = np.asarray(cells)
+    _, dV = physical_gradients(element, reference[cells])
+    N = element.shape(element.quad_points)
+    nodal = np.einsum("qa,eq->ea", N, dV)
+    f = np.zeros_like(reference, dtype=float)
+    np.add.at(f, cells.ravel(), nodal.ravel()[:, None] * np.asarray(force_density, dtype=float)[None, :])
+    return LinearTerm(f, reference)
