@@ -49,7 +49,8 @@ class LinearSolver:
         self._pardiso = None
         self._analysed = None
         self.negative_eigenvalues: int | None = None
-        """Negative eigenvalues of the last matrix solved (PARDISO's inertia); None if unknown."""
+        """Negative eigenvalues of the last matrix solved (PARDISO's inertia; a diagnostic for
+        stability studies); None where the backend does not report it."""
         self.reuse_analysis = os.environ.get("HYDROJAM_REUSE_ANALYSIS", "1") == "1"
 
     def _solve_pardiso(self, K: sp.csr_matrix, b: np.ndarray) -> np.ndarray:

@@ -104,9 +104,9 @@ class Problem:
 
 @dataclass(frozen=True)
 class NewtonOptions:
-    """Newton settings. ``projection``: "adaptive" (the full Hessian, shifted by tau diag|H| just
-    enough that its factorisation has no negative eigenvalue: inertia correction), "always"
-    (element Hessians projected to PSD throughout, as in IPC) or "never" (the full Hessian).
+    """Newton settings. ``projection``: "adaptive" (the full Hessian, shifted by tau diag|H| only
+    while its step does not descend), "always" (element Hessians projected to PSD throughout, as
+    in IPC) or "never" (the full Hessian; a scaled gradient step where it does not descend).
 
     Adaptive is the default because projecting a stable but locally non-convex gel (every gel
     element under lateral constraint) discards real curvature: measured on a swelling layer,
