@@ -224,16 +224,16 @@ def test_gel_spheres_jam_in_a_rigid_box_3d():
         for j in range(2):
             ctr = (c + R + i * (2 * R + c) + 0.2 * c * rng.uniform(-1, 1), c + R + j * (2 * R + c) + 0.2 * c * rng.uniform(-1, 1),
                    c + R + 0.1 * rng.uniform(-1, 1))
-            parts[f"p{k}"] = ball(R, 0.7, center=ctr)
+            parts[f"p{k}"] = ball(R, 0.9, center=ctr)
             k += 1
     Hz = 2 * R + 2 * c
     t = 0.5
-    parts["floor"] = box(L + 2 * t, L + 2 * t, t, 0.8, origin=(-t, -t, -t))
-    parts["lid"] = box(L + 2 * t, L + 2 * t, t, 0.8, origin=(-t, -t, Hz))
-    parts["wx0"] = box(t, L, Hz, 0.8, origin=(-t, 0, 0))
-    parts["wx1"] = box(t, L, Hz, 0.8, origin=(L, 0, 0))
-    parts["wy0"] = box(L, t, Hz, 0.8, origin=(0, -t, 0))
-    parts["wy1"] = box(L, t, Hz, 0.8, origin=(0, L, 0))
+    parts["floor"] = box(L + 2 * t, L + 2 * t, t, 1.2, origin=(-t, -t, -t))
+    parts["lid"] = box(L + 2 * t, L + 2 * t, t, 1.2, origin=(-t, -t, Hz))
+    parts["wx0"] = box(t, L, Hz, 1.2, origin=(-t, 0, 0))
+    parts["wx1"] = box(t, L, Hz, 1.2, origin=(L, 0, 0))
+    parts["wy0"] = box(L, t, Hz, 1.2, origin=(0, -t, 0))
+    parts["wy1"] = box(L, t, Hz, 1.2, origin=(0, L, 0))
     m = merge(parts)
     S, C, prob, _, _ = _jam_problem(m, ["floor", "lid", "wx0", "wx1", "wy0", "wy1"], 4, T=295.0)
     watch = Watch(C)

@@ -20,11 +20,17 @@ is a body, or bodies bonded by shared nodes) can collide.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import ipctk
 import numpy as np
 import scipy.sparse as sp
+
+# ipctk's parallel sums change the barrier gradient and Hessian in the last bits from call to call
+# on 2 threads, which jammed load paths amplify (identical runs took 553, 359 and 408 Newton
+# iterations; 429 every time on one thread, at no measurable cost): reproducible by default.
+ipctk.set_num_threads(int(os.environ.get("HYDROJAM_IPC_THREADS", "1")))
 
 # corner/mid-node splits of quadratic facets into straight primitives (meshio facet order)
 _SPLIT = {
