@@ -302,7 +302,6 @@ class Hydrogel(_InvariantMaterial):
         lam0 = self.params.lambda0
         self._prestretch_sq = lam0**2
         self._scale = self.params.kT_over_nu / lam0**3
-        self._energy_offset = 0.0
         self._energy_offset = float(self._scale * self._psi(3.0 * lam0**2, lam0**3, 0)[0])
 
     def at(self, mu: float, T: float) -> "Hydrogel":

@@ -192,8 +192,10 @@ def minimize(
         # relative to the forces in play: the largest term's force magnitude (a solid's internal
         # force flux without cancellation; a load's or contact's own force), with the problem's
         # force scale only as a floor far below any real force
-        flows = [getattr(t, "_flux", None) if hasattr(t, "force_flux") else None for t in terms]
-        in_play = max(float(np.linalg.norm((fl if fl is not None else gt)[fidx])) for fl, gt in zip(flows, grads))
+        in_play = max(
+            float(np.linalg.norm((t.force_flux(xs) if hasattr(t, "force_flux") else gt)[fidx]))
+            for t, gt in zip(terms, grads)
+        )
         tol = max(options.rtol * in_play, 1e-10 * force_scale)  # floor: round-off of the residual
         residuals.append(r)
         if not np.isfinite(r):
