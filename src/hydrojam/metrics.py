@@ -1,0 +1,264 @@
+"""Actuator metrics as pure functions of node positions (DESIGN.md sections 6 and 7).
+
+Every function takes reference positions ``X`` and current positions ``x`` as arrays of shape
+(m, 2) in mm, in the (x, z) plane of DESIGN.md section 6: x is the bending direction (the
+strain-limit layer lies on the -x side), z the actuator axis, the clamp at z = 0 and the free end
+at z = -L.
+
+Sign convention for rotations: bending *toward the strain-limit side* swings the tip to -x, which
+is a **clockwise** rotation in the (x right, z up) plane, and counts **positive**. For example the
+centreline bent into an arc of radius R centred at (-R, 0), from the clamp at the origin, has the
+points (-R + R cos p, -R sin p); its tangent at p has turned clockwise by p, and its bending
+angle is +p.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable, Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+# Below this total rotation [rad] a centreline counts as straight: the curling index is undefined.
+STRAIGHT_ROTATION_RAD = 1.0e-3
+
+
+def _as_points(points, name: str) -> np.ndarray:
+    arr = np.asarray(points, dtype=float)
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (m, 2), got {arr.shape}")
+    return arr
+
+
+def _as_pair(X, x, min_nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    X = _as_points(X, "X")
+    x = _as_points(x, "x")
+    if X.shape != x.shape:
+        raise ValueError(f"reference and current positions differ in shape: {X.shape} vs {x.shape}")
+    if X.shape[0] < min_nodes:
+        raise ValueError(f"need at least {min_nodes} nodes, got {X.shape[0]}")
+    return X, x
+
+
+def _clockwise_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Clockwise angle [rad] from direction(s) a to direction(s) b, in [-pi, pi]."""
+    cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    dot = np.sum(a * b, axis=-1)
+    return -np.arctan2(cross, dot)
+
+
+def _principal_direction(centred: np.ndarray) -> np.ndarray:
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    return vt[0]
+
+
+def face_rotation_deg(X_face, x_face) -> float:
+    """Rotation [deg] of a face from its reference to its current orientation, positive clockwise.
+
+    The face's orientation is its best-fit line: the principal axis (SVD) of the centred node
+    positions. The current axis is oriented like the reference one, with the sign that keeps the
+    order of the nodes' projections on it (sum of p_ref * p_cur >= 0), so rotations beyond 90
+    degrees are told apart from flips. Positive is clockwise in the (x, z) plane, i.e. toward the
+    strain-limit side (-x) for a face at the free end. Result in (-180, 180].
+
+    X_face, x_face: reference and current node positions, shape (m, 2), m >= 2 [mm].
+    """
+    X, x = _as_pair(X_face, x_face, min_nodes=2)
+    P = X - X.mean(axis=0)
+    p = x - x.mean(axis=0)
+    d_ref = _principal_direction(P)
+    d_cur = _principal_direction(p)
+    if np.sum((P @ d_ref) * (p @ d_cur)) < 0.0:
+        d_cur = -d_cur
+    angle = float(np.degrees(_clockwise_angle(d_ref, d_cur)))
+    return 180.0 if angle <= -180.0 else angle
+
+
+def bending_angle_deg(X_face, x_face) -> float:
+    """Bending angle theta [deg] of DESIGN.md section 7: rotation of the free-end face.
+
+    The face rotation (``face_rotation_deg``) of the free-end face's nodes: positive toward the
+    strain-limit side (-x, clockwise in the (x, z) plane), in (-180, 180].
+
+    X_face, x_face: reference and current positions of the free-end face's nodes, shape (m, 2) [mm].
+    """
+    return face_rotation_deg(X_face, x_face)
+
+
+def tip_displacement(X_face, x_face) -> tuple[float, float]:
+    """Free-end displacement (dx, dz) [mm] of DESIGN.md section 7: the face centroid's displacement.
+
+    The centroid is the plain mean of the face's nodes, so this is the mean of the node
+    displacements (not an area-weighted centroid: with unevenly spaced nodes the two differ).
+
+    X_face, x_face: reference and current positions of the free-end face's nodes, shape (m, 2) [mm].
+    """
+    X, x = _as_pair(X_face, x_face, min_nodes=1)
+    dx, dz = (x - X).mean(axis=0)
+    return float(dx), float(dz)
+
+
+@dataclass(frozen=True)
+class CentrelineProfile:
+    """Rotation and curvature along a centreline, nodes ordered from the clamp to the free end.
+
+    reference_arc_length: (m,) arc length from the clamp in the reference state [mm].
+    arc_length: (m,) arc length from the clamp in the current state [mm] (along the polyline).
+    rotation: (m,) rotation of the tangent from its reference direction [rad], positive clockwise
+        (toward the strain-limit side, -x), unwrapped along the line: it exceeds pi for a curled
+        actuator.
+    curvature: (m,) d(rotation)/d(arc_length) [1/mm], positive when bending toward -x. For a
+        straight reference centreline this is the current (signed) curvature.
+    """
+
+    reference_arc_length: np.ndarray
+    arc_length: np.ndarray
+    rotation: np.ndarray
+    curvature: np.ndarray
+
+    @property
+    def total_rotation_deg(self) -> float:
+        """Rotation [deg] accumulated along the centreline, from the clamp node to the free end.
+
+        With the clamp node held (no rotation there) this is the free end's tangent rotation; it
+        is not wrapped to (-180, 180].
+        """
+        return float(np.degrees(self.rotation[-1] - self.rotation[0]))
+
+
+def _quadratic(s, s0, s1, s2, f0, f1, f2):
+    """The quadratic through (s0, f0), (s1, f1), (s2, f2), evaluated at s (Lagrange form)."""
+    return (
+        f0 * (s - s1) * (s - s2) / ((s0 - s1) * (s0 - s2))
+        + f1 * (s - s0) * (s - s2) / ((s1 - s0) * (s1 - s2))
+        + f2 * (s - s0) * (s - s1) / ((s2 - s0) * (s2 - s1))
+    )
+
+
+def _nodes_from_segments(seg_length: np.ndarray, seg_value: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Node arc lengths and node values of a quantity known at the segments' midpoints.
+
+    Quadratic interpolation in arc length through three neighbouring midpoints (the mean of the
+    two stencils straddling an interior node; one-sided at the end nodes): third-order accurate
+    interpolation on any spacing, exact for a quantity linear in arc length. Two segments:
+    linear; one: constant.
+    """
+    s = np.concatenate(([0.0], np.cumsum(seg_length)))
+    n_seg = seg_value.size
+    if n_seg == 1:
+        return s, np.full(2, seg_value[0])
+    s_mid = 0.5 * (s[:-1] + s[1:])
+    if n_seg == 2:
+        slope = (seg_value[1] - seg_value[0]) / (s_mid[1] - s_mid[0])
+        return s, seg_value[0] + slope * (s - s_mid[0])
+
+    def through(first: np.ndarray, at: np.ndarray) -> np.ndarray:
+        j = (first, first + 1, first + 2)
+        return _quadratic(at, *(s_mid[k] for k in j), *(seg_value[k] for k in j))
+
+    node = np.arange(n_seg + 1)
+    behind = through(np.clip(node - 2, 0, n_seg - 3), s)  # midpoints i-2, i-1, i
+    ahead = through(np.clip(node - 1, 0, n_seg - 3), s)  # midpoints i-1, i, i+1
+    return s, 0.5 * (behind + ahead)
+
+
+def _polyline_tangents(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Arc length [mm] and unwrapped counter-clockwise tangent angle [rad] at the nodes of a curve.
+
+    A segment's chord is the tangent at its midpoint up to O(h^2) (exactly on a circular arc).
+    The chord is shorter than the arc it spans, by the factor sin(d/2) / (d/2) for a turning d
+    across it; that factor, with d from a first pass, makes the arc length exact on circular arcs
+    and removes the chord's leading O(h^2) error elsewhere.
+    """
+    seg = np.diff(points, axis=0)
+    chord = np.linalg.norm(seg, axis=1)
+    if np.any(chord <= 0.0):
+        raise ValueError("centreline nodes must be distinct (zero-length segment)")
+    seg_angle = np.unwrap(np.arctan2(seg[:, 1], seg[:, 0]))
+    _, angle = _nodes_from_segments(chord, seg_angle)
+    turning = np.diff(angle)
+    return _nodes_from_segments(chord / np.sinc(turning / (2.0 * np.pi)), seg_angle)
+
+
+def centreline_profile(X_line, x_line) -> CentrelineProfile:
+    """Tangent rotation and curvature along a centreline (DESIGN.md section 7).
+
+    X_line, x_line: reference and current node positions, shape (m, 2), m >= 2 [mm], ordered from
+    the clamp to the free end; the spacing need not be even.
+
+    Tangent directions at the nodes come from the segments' chords (each the tangent at its
+    segment's midpoint, up to O(h^2)), unwrapped along the line and interpolated quadratically in
+    arc length to the nodes (one-sided at the two ends): second-order accurate on uneven spacing,
+    exact for rigid motions and for uniform bending (circular arcs). Arc lengths are the chord
+    lengths corrected for the turning across each segment (exact on circular arcs). The rotation
+    is the clockwise angle from the reference to the current tangent, node by node, shifted by a
+    whole number of turns so that the clamp node's rotation lies in (-pi, pi]. The curvature is
+    the second-order finite difference (``np.gradient``, one-sided second order at the ends) of
+    the rotation over current arc length: second-order accurate where the spacing varies
+    smoothly; at the two nodes nearest each end it drops to first order where the spacing jumps
+    from segment to segment (the rotation's O(h^2) error is then not smooth there).
+    """
+    X, x = _as_pair(X_line, x_line, min_nodes=2)
+    S, angle_ref = _polyline_tangents(X)
+    s, angle_cur = _polyline_tangents(x)
+    rotation = angle_ref - angle_cur  # counter-clockwise angles: clockwise rotation is positive
+    rotation -= 2.0 * np.pi * np.ceil((rotation[0] - np.pi) / (2.0 * np.pi))
+    curvature = np.gradient(rotation, s, edge_order=2) if s.size >= 3 else np.zeros(2)
+    return CentrelineProfile(reference_arc_length=S, arc_length=s, rotation=rotation, curvature=curvature)
+
+
+def curling_index(profile: CentrelineProfile) -> float | None:
+    """Share of the total rotation accumulated in the half of the centreline nearest the clamp.
+
+    (rot(s_end / 2) - rot(0)) / (rot(s_end) - rot(0)), the halves taken by *current* arc length and
+    the rotation interpolated linearly at s_end / 2. It is 0.5 for uniform bending (a circular
+    arc), tends to 1 when the rotation is concentrated near the clamp (curling, paper Sec. IV-B)
+    and to 0 when it is concentrated near the tip.
+
+    Returns None when |rot(s_end) - rot(0)| < 1e-3 rad: the share is undefined for a (nearly)
+    straight actuator.
+    """
+    rot = profile.rotation
+    total = rot[-1] - rot[0]
+    if abs(total) < STRAIGHT_ROTATION_RAD:
+        return None
+    s = profile.arc_length
+    half = np.interp(0.5 * s[-1], s, rot)
+    return float((half - rot[0]) / total)
+
+
+def polygon_area(points) -> float:
+    """Area [mm^2] of a simple polygon (shoelace formula, absolute value).
+
+    points: (m, 2) vertices [mm] in order around the polygon (either sense), not repeating the
+    first vertex at the end.
+    """
+    p = _as_points(points, "points")
+    x, z = p[:, 0], p[:, 1]
+    return float(0.5 * abs(np.dot(x, np.roll(z, -1)) - np.dot(z, np.roll(x, -1))))
+
+
+def packing_fraction(particle_area: float, cavity_area: float) -> float:
+    """Packing fraction [-]: the share of the cavity filled by particles (2D: areas in mm^2).
+
+    particle_area: total area of the particles [mm^2]; cavity_area: area of the cavity [mm^2], > 0.
+    """
+    if cavity_area <= 0.0:
+        raise ValueError(f"cavity_area must be positive, got {cavity_area}")
+    return float(particle_area) / float(cavity_area)
+
+
+def contacts_per_particle(
+    pairs: Iterable[tuple[Hashable, Hashable]], particle_ids: Iterable[Hashable]
+) -> float:
+    """Mean coordination number Z = (2 N_pp + N_pw) / N_particles [-].
+
+    pairs: (a, b) component ids in contact. A pair of two particles (N_pp) counts for both; a
+    pair of a particle with anything not in particle_ids (a wall, N_pw) counts once; a pair with
+    no particle is ignored. particle_ids: the particles' ids. Returns 0 with no particles.
+    """
+    particles = set(particle_ids)
+    if not particles:
+        return 0.0
+    ends = sum(int(a in particles) + int(b in particles) for a, b in pairs)
+    return ends / len(particles)
