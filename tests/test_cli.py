@@ -80,3 +80,80 @@ def test_installed_command_exits_2_without_traceback(tmp_path):
     assert res.returncode == 2
     assert res.stderr.strip().count("\n") == 0 and "--nnu" in res.stderr
     assert "Traceback" not in res.stderr
+
+
+# ---------------------------------------------------------------------------------------------
+# hydrojam init / run
+
+
+def test_init_writes_the_default_design_and_refuses_to_overwrite(tmp_path, capsys):
+    from hydrojam.design import default_design, load_design
+
+    path = tmp_path / "design.toml"
+    rc, _, _ = run(capsys, "init", str(path))
+    assert rc == 0 and load_design(path) == default_design()
+    assert "# as-prepared particle diameter d [mm]" in path.read_text()
+    rc, _, err = run(capsys, "init", str(path))
+    assert rc == 2 and "--force" in err
+    rc, _, _ = run(capsys, "init", str(path), "--force", "--set", "particle_layers=7")
+    assert rc == 0 and load_design(path).particle_layers == 7
+
+
+BAD_DESIGNS = [
+    ("cavity_width = 15.0\n", "cavity_width"),
+    ("strain_limit_thickness = -1.0\n", "strain_limit_thickness"),
+    ("particle_layers = 0\n", "particle_layers"),
+    ("particle_diameterr = 16.0\n", "particle_diameterr"),
+    ("[stimulus]\ntemperature = 400.0\n", "stimulus.temperature"),
+    ("dimension = 3\n", "dimension"),
+]
+
+
+@pytest.mark.parametrize("text, field", BAD_DESIGNS)
+def test_run_refuses_bad_designs_before_any_work(tmp_path, capsys, text, field):
+    """Exit status 2, one line naming the field, and OUT not even created."""
+    design = tmp_path / "bad.toml"
+    design.write_text(text)
+    out = tmp_path / "out"
+    rc, _, err = run(capsys, "run", str(design), "-o", str(out))
+    assert rc == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("hydrojam: error:") and field in lines[0]
+    assert not out.exists()
+
+
+def test_run_refuses_a_bad_override_and_a_missing_file(tmp_path, capsys):
+    design = tmp_path / "d.toml"
+    run(capsys, "init", str(design))
+    rc, _, err = run(capsys, "run", str(design), "-o", str(tmp_path / "o"), "--set", "particle_layers=0")
+    assert rc == 2 and "particle_layers" in err and not (tmp_path / "o").exists()
+    rc, _, err = run(capsys, "run", str(tmp_path / "missing.toml"), "-o", str(tmp_path / "o"))
+    assert rc == 2 and "missing.toml" in err
+
+
+def test_run_writes_every_output(tmp_path, capsys):
+    """The as-prepared stimulus (nothing moves, so it is quick): every documented file appears,
+    the pvd lists the VTU files, metrics.json has the documented keys and no NaN."""
+    from hydrojam.design import default_design, load_design
+
+    d = default_design()
+    design = tmp_path / "d.toml"
+    run(capsys, "init", str(design), "--set", "particle_layers=1",
+        "--set", f"stimulus.mu={d.hydrogel.mu0!r}", "--set", f"stimulus.temperature={d.hydrogel.T0!r}")
+    out = tmp_path / "out"
+    rc, _, _ = run(capsys, "run", str(design), "-o", str(out), "--quiet")
+    assert rc == 0
+    for name in ("design.toml", "metrics.json", "history.csv", "centreline.csv", "results.pvd", "final.png"):
+        assert (out / name).is_file(), name
+    text = (out / "metrics.json").read_text()
+    assert "NaN" not in text
+    m = json.loads(text)
+    for key in ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index", "converged",
+                "wall_time_s", "newton_iterations"):
+        assert key in m
+    assert m["converged"] is True
+    resolved = load_design(out / "design.toml")
+    assert resolved.cavity_width == pytest.approx(16.2) and resolved.particle_layers == 1
+    pvd = (out / "results.pvd").read_text()
+    files = [line.split('file="')[1].split('"')[0] for line in pvd.splitlines() if "file=" in line]
+    assert files and all((out / f).is_file() for f in files)

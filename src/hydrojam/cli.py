@@ -144,6 +144,93 @@ def swell(
         Console().print(f"figure written: {plot}")
 
 
+def _design_or_exit(design_file: Path | None, overrides: list[str]):
+    from .design import DesignError, apply_overrides, default_design, load_design
+    from .model import check_supported
+
+    try:
+        design = default_design() if design_file is None else load_design(design_file)
+        design = apply_overrides(design, overrides)
+        check_supported(design)
+    except DesignError as err:
+        raise InputError(str(err)) from None
+    return design
+
+
+@app.command()
+def init(
+    path: Path = typer.Argument(Path("design.toml"), help="Where to write the design (TOML)."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing file."),
+    overrides: list[str] = typer.Option([], "--set", help="Change a field, e.g. --set particle_layers=7 (repeatable)."),
+) -> None:
+    """Write the default actuator design as a commented TOML file (every field, units, ranges)."""
+    from .design import write_design
+
+    if path.exists() and not force:
+        raise InputError(f"{path}: exists; use --force to overwrite it")
+    if path.suffix.lower() != ".toml":
+        raise InputError(f"{path}: the design file must end in .toml")
+    design = _design_or_exit(None, overrides)
+    write_design(path, design)
+    Console(stderr=True).print(f"design written: {path}  (run it with: hydrojam run {path} -o out)")
+
+
+@app.command("run")
+def run_design(
+    design_file: Path = typer.Argument(..., help="Design file (TOML), e.g. from `hydrojam init`."),
+    out: Path = typer.Option(..., "-o", "--out", help="Output folder (created; earlier results in it are replaced)."),
+    overrides: list[str] = typer.Option([], "--set", help="Change a field, e.g. --set stimulus.temperature=295 (repeatable)."),
+    vtu: bool = typer.Option(True, "--vtu/--no-vtu", help="Write a VTU file per load step and the .pvd index."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+) -> None:
+    """Simulate one actuator along its stimulus path and write its results to OUT.
+
+    OUT gets design.toml (resolved), metrics.json, history.csv, centreline.csv, steps/*.vtu with
+    results.pvd (ParaView) and final.png. Exit status 0 when the target stimulus was reached, 1
+    when the solver stopped early (the results then hold the last converged state), 2 on bad input.
+    """
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from .model import build_model
+    from .results import ResultWriter
+    from .simulate import simulate
+
+    if not design_file.is_file():
+        raise InputError(f"{design_file}: no such design file")
+    design = _design_or_exit(design_file, overrides)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out: {out} exists and is not a folder")
+    console = Console(stderr=True)
+    model = build_model(design)
+    writer = ResultWriter(out, model, vtu=vtu)
+    writer.start()
+    columns = [TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("s = {task.completed:.3f}"),
+               TextColumn("{task.fields[info]}"), TimeElapsedColumn()]
+    with Progress(*columns, console=console, disable=quiet, transient=False) as progress:
+        task = progress.add_task(f"T -> {design.stimulus.temperature:g} K", total=1.0, info="")
+
+        def on_step(state):
+            writer.step(state)
+            m = state.metrics
+            progress.update(task, completed=state.s,
+                            info=f"angle {m['bending_angle_deg']:.1f} deg, iterations {state.iterations}")
+
+        result = simulate(model, on_step=on_step)
+    metrics = writer.finish(result)
+    if not quiet:
+        table = Table(title=f"hydrojam run: {design_file.name} -> {out}")
+        table.add_column("metric")
+        table.add_column("value", justify="right")
+        for key in ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index", "packing_fraction",
+                    "contacts_per_particle", "converged", "newton_iterations", "wall_time_s"):
+            v = metrics.get(key)
+            table.add_row(key, f"{v:.4g}" if isinstance(v, float) else str(v))
+        console.print(table)
+    if not result.converged:
+        console.print(f"[red]hydrojam: the solver stopped early: {result.message}[/red]")
+        raise typer.Exit(code=1)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydrojam`` command; returns the exit status."""
     try:

@@ -145,6 +145,7 @@ class Contact:
             self._friction_potential = ipctk.FrictionPotential(eps)
         self.ndof = self.X.size
         self.always_project = False  # measured: projecting the barrier Hessian doubled Newton iterations and failed a Hertz test
+        self.fallback_projection = True  # ... but project it when the exact Hessian gives no descent (solver)
 
     # -- collision sets ------------------------------------------------------------------------
 

