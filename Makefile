@@ -14,13 +14,16 @@ $(STAMP): pyproject.toml tools/bootstrap.sh
 demo: $(STAMP)
 	mkdir -p $(DEMO_OUT)
 	$(BIN)/hydrojam swell --t-min 275 --t-max 315 --t-step 2.5 --plot $(DEMO_OUT)/swelling.png
-	@echo "figure written: $(DEMO_OUT)/swelling.png"
+	$(BIN)/hydrojam init $(DEMO_OUT)/design.toml --force
+	$(BIN)/hydrojam run $(DEMO_OUT)/design.toml -o $(DEMO_OUT)/run
+	@echo "results written: $(DEMO_OUT)/run (final.png, metrics.json, results.pvd for ParaView)"
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/fe_core.py
+	$(BIN)/python benchmarks/actuator.py
 
 clean:
 	rm -rf $(VENV) $(DEMO_OUT) build src/*.egg-info

@@ -1,6 +1,7 @@
 """hydrojam: simulator for active particle jamming actuators (PNIPAM hydrogel particles in an
 elastomer chamber). Units: mm, MPa, mJ, K; chemical potential in k_B T."""
 
+from .design import Design, DesignError, apply_overrides, default_design, load_design, write_design
 from .materials import KT_OVER_NU_MPA, Hydrogel, HydrogelParams, Material, MaterialResponse, NeoHookean, Yeoh
 from .swelling import (
     SwellingState,
@@ -13,9 +14,23 @@ from .swelling import (
     transition_temperature,
 )
 
+from .model import ActuatorModel, build_model, measure
+from .simulate import SimulationResult, simulate
+
 __version__ = "0.1.0"
 
 __all__ = [
+    "ActuatorModel",
+    "Design",
+    "DesignError",
+    "SimulationResult",
+    "apply_overrides",
+    "build_model",
+    "default_design",
+    "load_design",
+    "measure",
+    "simulate",
+    "write_design",
     "KT_OVER_NU_MPA",
     "Hydrogel",
     "HydrogelParams",

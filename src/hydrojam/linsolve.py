@@ -48,6 +48,7 @@ class LinearSolver:
         self.calls = 0
         self._pardiso = None
         self._analysed = None
+        self._union = None
         self.negative_eigenvalues: int | None = None
         """Negative eigenvalues of the last matrix solved (PARDISO's inertia; a diagnostic for
         stability studies); None where the backend does not report it."""
@@ -66,6 +67,7 @@ class LinearSolver:
                 setter(ctypes.c_int(max(threads, 1)))
         upper = sp.triu(K, format="csr")
         upper.sort_indices()
+        upper = self._on_union_pattern(upper)
         ps._check_A(upper)
         b = ps._check_b(upper, b)
         # The symbolic analysis (ordering) depends only on the sparsity pattern: reuse it while the
@@ -80,6 +82,34 @@ class LinearSolver:
         self._analysed = key
         self.negative_eigenvalues = int(ps.get_iparm(23))  # inertia of the factorised matrix
         return x
+
+    def _on_union_pattern(self, upper: sp.csr_matrix) -> sp.csr_matrix:
+        """``upper`` stored on the union of the sparsity patterns seen lately (explicit zeros
+        where it has no entry), so that contacts coming and going do not change the pattern and
+        PARDISO's analysis is reused. The union restarts from ``upper``'s own pattern when that
+        fills less than 70% of it (contacts long gone would only slow the factorisation)."""
+        if not self.reuse_analysis:
+            return upper
+        n = upper.shape[0]
+        rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(upper.indptr))
+        keys = rows * n + upper.indices
+        u = self._union
+        if u is not None and u[0] == n and len(keys) >= 0.7 * len(u[1]):
+            pos = np.searchsorted(u[1], keys)
+            pos = np.minimum(pos, len(u[1]) - 1)
+            if np.array_equal(u[1][pos], keys):
+                data = np.zeros(len(u[1]))
+                data[pos] = upper.data
+                return sp.csr_matrix((data, u[3], u[2]), shape=upper.shape)
+            keys_u = np.union1d(u[1], keys)
+        else:
+            keys_u = keys
+        r, c = np.divmod(keys_u, n)
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=n))]).astype(upper.indptr.dtype)
+        self._union = (n, keys_u, indptr, c.astype(upper.indices.dtype))
+        data = np.zeros(len(keys_u))
+        data[np.searchsorted(keys_u, keys)] = upper.data
+        return sp.csr_matrix((data, self._union[3], indptr), shape=upper.shape)
 
     def solve(self, K: sp.spmatrix, b: np.ndarray) -> np.ndarray:
         """Solution u of K u = b; raises LinearSolveError if it is not finite."""
