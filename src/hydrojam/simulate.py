@@ -209,36 +209,33 @@ def simulate(
                             res.rejected_steps, timings, stabilization_info)
 
 
-def _release(problem, stab, x, options, terms, max_rounds: int = 40, round_iterations: int = 60):
+def _release(problem, stab, x, options, terms, max_rounds: int = 80):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
-    on the last state, again and again. The damping is lowered 10x after an easy round (<= 10
-    Newton iterations) and raised 3x after a failed one, never again below 10x the lowest scale
-    that failed (a failed round costs ``round_iterations`` iterations and teaches that the raw
-    problem is hard there). The viscous force left at the end of a round is exactly the residual
-    of the physics alone, so the state is an equilibrium once that force is below the solver's
-    tolerance (rtol x the forces in play). Returns (x, Newton iterations, released): x the last
-    converged round's state, released False if the rounds ran out first."""
+    on the last state, again and again, the damping lowered 10x after every easy round (<= 20
+    Newton iterations) and raised 10x after a failed one. The viscous force left at the end of a
+    round is exactly the residual of the physics alone, so the state is an equilibrium once that
+    force is below the solver's tolerance (rtol x the forces in play). Returns (x, Newton
+    iterations, released): x the last converged round's state, released False if the rounds ran
+    out (or the damping had to exceed 1000x) first."""
     free = problem.free_mask()
     rtol = options.newton.rtol
-    newton = dataclasses.replace(options.newton, max_iter=round_iterations)
-    its, scale, floor = 0, 1.0, 1e-8
+    its, scale = 0, stab.scale
     for _ in range(max_rounds):
         stab.scale = scale
         stab.begin_step(x)
         ts = terms(1.0)
-        res = minimize(ts, x, free, problem.force_scale, newton)
+        res = minimize(ts, x, free, problem.force_scale, options.newton)
         its += res.iterations
         if not res.converged:
-            floor = max(floor, 10.0 * scale)
-            scale = 3.0 * scale
+            if scale >= 1e3:
+                break
+            scale *= 10.0
             continue
         x = res.x
         viscous = float(np.linalg.norm(stab.gradient(x)[free]))
         in_play = float(np.linalg.norm(ts[0].force_flux(x)[free]))
         if viscous <= max(rtol * in_play, 1e-10 * problem.force_scale):
-            stab.scale = 1.0
             return x, its, True
-        if res.iterations <= 10:
-            scale = max(scale / 10.0, floor)
-    stab.scale = 1.0
+        if res.iterations <= 20:
+            scale = max(scale / 10.0, 1e-8)
     return x, its, False
