@@ -16,13 +16,16 @@ def test_python_examples_run(block):
     exec(compile(block, "README.md", "exec"), {})
 
 
-COMMANDS = [line.split("#")[0].strip() for blk in re.findall(r"```sh\n(.*?)```", README, re.S)
-            for line in blk.splitlines() if line.strip().startswith("hydrojam ")]
+BLOCKS = [[line.split("#")[0].strip() for line in blk.splitlines() if line.strip().startswith("hydrojam ")]
+          for blk in re.findall(r"```sh\n(.*?)```", README, re.S)]
+BLOCKS = [b for b in BLOCKS if b]
 
 
-@pytest.mark.parametrize("command", COMMANDS)
-def test_cli_commands_run(command, tmp_path, monkeypatch, capsys):
+@pytest.mark.parametrize("commands", BLOCKS, ids=[b[0][:40] for b in BLOCKS])
+def test_cli_commands_run(commands, tmp_path, monkeypatch, capsys):
+    """The commands of one README block, in order, in one folder (a later one may use what an
+    earlier one wrote, as `hydrojam run` uses the design of `hydrojam init`)."""
     monkeypatch.chdir(tmp_path)
-    argv = shlex.split(command.split(">")[0])[1:]
-    assert main(argv) == 0
-    assert COMMANDS  # the README shows at least one command
+    for command in commands:
+        argv = shlex.split(command.split(">")[0])[1:]
+        assert main(argv) == 0, command

@@ -186,9 +186,12 @@ def simulate(
         raise RuntimeError("the solver returned non-finite positions")
     released = stab is None
     newton_iterations = res.newton_iterations
+    release_seconds = 0.0
     if stab is not None and res.converged:
-        x, its, released = _release(problem, stab, res.x, options, terms)
+        t_release = time.perf_counter()
+        x, its, released = _release(problem, stab, res.x, options, terms, res.timings)
         newton_iterations += its
+        release_seconds = time.perf_counter() - t_release
         states.pop()
         record(1.0, x, its)
     wall = time.perf_counter() - t_start
@@ -197,6 +200,7 @@ def simulate(
         "elastic": elastic.seconds,
         "contact": contact.seconds,
         "linear_solve": res.timings.linear_solve,
+        "release": release_seconds,
         "newton_iterations": res.timings.iterations,
     }
     message = res.message
@@ -209,7 +213,7 @@ def simulate(
                             res.rejected_steps, timings, stabilization_info)
 
 
-def _release(problem, stab, x, options, terms, max_rounds: int = 80):
+def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
     on the last state, again and again, the damping lowered 10x after every easy round (<= 20
     Newton iterations) and raised 10x after a failed one. The viscous force left at the end of a
@@ -226,6 +230,7 @@ def _release(problem, stab, x, options, terms, max_rounds: int = 80):
         ts = terms(1.0)
         res = minimize(ts, x, free, problem.force_scale, options.newton)
         its += res.iterations
+        timings.add(res.timings)
         if not res.converged:
             if scale >= 1e3:
                 break
