@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .model import ActuatorModel, measure
+from .linsolve import LinearSolver
 from .solver import NewtonOptions, PathOptions, minimize, solve_path
 from .terms import ViscousStabilization, lumped_volumes
 
@@ -223,12 +224,13 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80):
     out (or the damping had to exceed 1000x) first."""
     free = problem.free_mask()
     rtol = options.newton.rtol
+    solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: PARDISO's set-up costs 0.4 s
     its, scale = 0, stab.scale
     for _ in range(max_rounds):
         stab.scale = scale
         stab.begin_step(x)
         ts = terms(1.0)
-        res = minimize(ts, x, free, problem.force_scale, options.newton)
+        res = minimize(ts, x, free, problem.force_scale, options.newton, solver)
         its += res.iterations
         timings.add(res.timings)
         if not res.converged:
