@@ -15,15 +15,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .model import ActuatorModel, measure
 from .linsolve import LinearSolver
+from .model import ActuatorModel, measure
 from .solver import NewtonOptions, PathOptions, minimize, solve_path
 from .terms import ViscousStabilization, lumped_volumes
 
-#: load-path settings for actuators: many contacts change during a step, so a step may take
-#: many Newton iterations; a long attempt is cheaper than halving the step and starting over
+#: viscous stabilisation c = STABILIZATION x G_membrane / d [N/mm^3] (docs/actuator.md)
 STABILIZATION = 0.01
 
+#: load-path settings for actuators: many contacts change during a step, so a step may take
+#: many Newton iterations; a long attempt is cheaper than halving the step and starting over
 ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, newton=NewtonOptions(max_iter=200))
 
 
@@ -141,6 +142,11 @@ def simulate(
     ``on_step(state)`` runs after every accepted step (including s = 0), e.g. to write results
     as they come; ``on_progress(s)`` after every attempt (a progress bar). Never raises on
     non-convergence: the result says so and keeps the last converged state.
+
+    ``stabilization``: viscous damping c = stabilization x G_membrane / d [N/mm^3] of every
+    node's motion within a load step (:class:`hydrojam.terms.ViscousStabilization`), released at
+    s = 1 so that the final state is an equilibrium without it (0: none). The final state
+    replaces the last stabilised one in ``states`` (same index, passed to ``on_step`` again).
     """
     t_start = time.perf_counter()
     elastic, contact = _Clock(), _Clock()
