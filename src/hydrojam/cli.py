@@ -209,11 +209,16 @@ def run_design(
     with Progress(*columns, console=console, disable=quiet, transient=False) as progress:
         task = progress.add_task(f"T -> {design.stimulus.temperature:g} K", total=1.0, info="")
 
+        seen = set()
+
         def on_step(state):
             writer.step(state)
             m = state.metrics
-            progress.update(task, completed=state.s,
-                            info=f"angle {m['bending_angle_deg']:.1f} deg, iterations {state.iterations}")
+            info = f"angle {m['bending_angle_deg']:.1f} deg, iterations {state.iterations}"
+            if state.s >= 1.0:  # the stabilised end state first, then the released one (same index)
+                info += "; releasing the stabilisation..." if state.index not in seen else "; released"
+                seen.add(state.index)
+            progress.update(task, completed=state.s, info=info)
 
         result = simulate(model, on_step=on_step)
     metrics = writer.finish(result)
