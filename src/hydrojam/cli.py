@@ -216,7 +216,7 @@ def run_design(
             m = state.metrics
             info = f"angle {m['bending_angle_deg']:.1f} deg, iterations {state.iterations}"
             if state.s >= 1.0:  # the stabilised end state first, then the released one (same index)
-                info += "; releasing the stabilisation..." if state.index not in seen else "; released"
+                info += "; releasing the stabilisation..." if state.index not in seen else "; final state"
                 seen.add(state.index)
             progress.update(task, completed=state.s, info=info)
 
