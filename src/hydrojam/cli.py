@@ -227,7 +227,8 @@ def run_design(
         table.add_column("metric")
         table.add_column("value", justify="right")
         for key in ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index", "packing_fraction",
-                    "contacts_per_particle", "converged", "newton_iterations", "wall_time_s"):
+                    "contacts_per_particle", "converged", "stabilization_released", "newton_iterations",
+                    "wall_time_s"):
             v = metrics.get(key)
             table.add_row(key, f"{v:.4g}" if isinstance(v, float) else str(v))
         console.print(table)
