@@ -235,6 +235,8 @@ def run_design(
     if not result.converged:
         console.print(f"[red]hydrojam: the solver stopped early: {result.message}[/red]")
         raise typer.Exit(code=1)
+    if not metrics.get("stabilization_released", True):
+        console.print(f"[yellow]hydrojam: warning: {result.message}[/yellow]")
 
 
 def main(argv: list[str] | None = None) -> int:
