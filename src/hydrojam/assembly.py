@@ -88,7 +88,7 @@ def _einsum(spec: str, *operands):
     key = (spec, tuple(o.shape for o in operands))
     path = _PATHS.get(key)
     if path is None:
-        path = _PATHS[key] = np.einsum_path(spec, *operands, optimize="optimal")[0]
+        path = _PATHS[key] = np.einsum_path(spec, *operands, optimize="optimal")[0]  # = optimize=True
     return np.einsum(spec, *operands, optimize=path)
 
 

@@ -10,7 +10,8 @@ cancellation of assembly, a load's or the contact's own force), but never below 
 problem's force scale (round-off of the residual: a stress-free mesh of 100 mm already shows
 1e-13 N), or,
 once the residual is within ``stall_factor`` of that, a Newton decrement below round-off of the
-energy. rtol = 1e-6 by default: six orders of magnitude below the acting forces (ABAQUS's
+energy or a line search that finds no representable decrease. rtol = 1e-6 by default: six
+orders of magnitude below the acting forces (ABAQUS's
 default is 5e-3); frictionless round particles have near-zero-stiffness rotation modes that a
 tighter tolerance chases for hundreds of iterations without changing any result.
 """
@@ -274,6 +275,11 @@ def minimize(
         tm.iterations += 1
         trace.append((r, alpha, cap, project, tau))
         if alpha < options.min_alpha:
+            if r <= options.stall_factor * tol:
+                # within stall_factor of the tolerance and no representable descent along the
+                # Newton direction: the energy is at its round-off floor, not stuck
+                return NewtonResult(xs.copy(), True, it, r, E, "converged (no descent left above round-off)",
+                                    residuals, tm, trace)
             return NewtonResult(xs.copy(), False, it, r, E, "line search failed (no admissible descent)", residuals, tm, trace)
         x, E = xn, En
         if alpha < 0.1:
