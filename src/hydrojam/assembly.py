@@ -79,21 +79,6 @@ def _pattern(geoms: list[_Geometry], n: int) -> _Pattern:
     return _Pattern(indptr, cols.astype(np.int32), slots, n)
 
 
-_PATHS: dict = {}
-
-
-def _einsum(spec: str, *operands):
-    """np.einsum with the contraction order found once per (spec, shapes), not at every call
-    (measured: finding it was 8% of an actuator simulation). The order is the one optimize=True
-    finds ("greedy"): another order changes round-off, and a jammed particle column can answer
-    a round-off change with another load path (measured: 73 load steps instead of 39)."""
-    key = (spec, tuple(o.shape for o in operands))
-    path = _PATHS.get(key)
-    if path is None:
-        path = _PATHS[key] = np.einsum_path(spec, *operands, optimize="greedy")[0]  # the order optimize=True picks
-    return np.einsum(spec, *operands, optimize=path)
-
-
 def project_psd(K: np.ndarray) -> np.ndarray:
     """Element matrices (ne, m, m) with negative eigenvalues clamped to zero (symmetrised first)."""
     K = 0.5 * (K + np.swapaxes(K, -1, -2))
@@ -131,7 +116,7 @@ class Solid:
         return new
 
     def _F(self, x: np.ndarray, g: _Geometry) -> np.ndarray:
-        return _einsum("eai,eqaj->eqij", x[g.cells], g.dNdX)
+        return np.einsum("eai,eqaj->eqij", x[g.cells], g.dNdX, optimize=True)
 
     def deformation_gradients(self, x: np.ndarray) -> list[np.ndarray]:
         """F at every quadrature point of every block, [(ne, nq, d, d)]."""
@@ -159,7 +144,7 @@ class Solid:
         """(geometry, element internal forces (ne, nen, d) [N]) for every block."""
         for b, g in zip(self.blocks, self._geoms):
             P = b.material.evaluate(self._F(x, g), tangent=False).stress
-            yield g, _einsum("eq,eqij,eqaj->eai", g.dV, P, g.dNdX)
+            yield g, np.einsum("eq,eqij,eqaj->eai", g.dV, P, g.dNdX, optimize=True)
 
     def gradient(self, x: np.ndarray) -> np.ndarray:
         out = np.zeros(self.ndof)
@@ -187,8 +172,8 @@ class Solid:
         for b, g in zip(self.blocks, self._geoms):
             A = b.material.evaluate(self._F(x, g), tangent=True).tangent
             ne, nq, nen, d = g.dNdX.shape
-            AG = _einsum("eqijkl,eqbl->eqijkb", A, g.dNdX)
-            Ke = _einsum("eq,eqaj,eqijkb->eaibk", g.dV, g.dNdX, AG).reshape(ne, nen * d, nen * d)
+            AG = np.einsum("eqijkl,eqbl->eqijkb", A, g.dNdX, optimize=True)
+            Ke = np.einsum("eq,eqaj,eqijkb->eaibk", g.dV, g.dNdX, AG, optimize=True).reshape(ne, nen * d, nen * d)
             out.append(project_psd(Ke) if project else Ke)
         return out
 
