@@ -18,8 +18,9 @@ demo: $(STAMP)
 	$(BIN)/hydrojam run $(DEMO_OUT)/design.toml -o $(DEMO_OUT)/run
 	@echo "results written: $(DEMO_OUT)/run (final.png, metrics.json, results.pvd for ParaView)"
 
+# -n auto: one pytest worker per CPU (the slow contact tests then run side by side)
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/fe_core.py
