@@ -126,6 +126,11 @@ class Solid:
         """Reference volume of each cell per block [mm^3, or mm^2 in 2D]."""
         return [g.dV.sum(axis=1) for g in self._geoms]
 
+    def current_volumes(self, x: np.ndarray) -> list[np.ndarray]:
+        """Current volume of each cell per block, the integral of det F over the reference
+        [mm^3, or mm^2 in 2D]."""
+        return [np.sum(np.linalg.det(self._F(x, g)) * g.dV, axis=1) for g in self._geoms]
+
     def energy(self, x: np.ndarray) -> float:
         total = 0.0
         for b, g in zip(self.blocks, self._geoms):

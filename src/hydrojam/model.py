@@ -180,15 +180,9 @@ def _signed_area(x: np.ndarray, segments: np.ndarray) -> float:
 
 def particle_areas(model: ActuatorModel, x: np.ndarray) -> np.ndarray:
     """Current area of each particle (n_particles,) [mm^2] (integrated det F over the reference)."""
-    F = model.solid.deformation_gradients(x)[2]
-    dV = model.solid._geoms[2].dV  # per quadrature point
-    J = np.linalg.det(F)
-    per_cell = np.sum(J * dV, axis=1)
-    out, start = [], 0
-    for cells in model.particle_cells:  # the gel block holds the particles' cells in this order
-        out.append(float(per_cell[start:start + len(cells)].sum()))
-        start += len(cells)
-    return np.asarray(out)
+    per_cell = model.solid.current_volumes(x)[2]  # the gel block holds the particles' cells in order
+    bounds = np.cumsum([len(c) for c in model.particle_cells])[:-1]
+    return np.array([part.sum() for part in np.split(per_cell, bounds)])
 
 
 def measure(model: ActuatorModel, x: np.ndarray) -> dict:
