@@ -16,6 +16,7 @@ from .swelling import (
 
 from .model import ActuatorModel, build_model, measure
 from .simulate import SimulationResult, simulate
+from .study import Study, load_study
 
 __version__ = "0.1.0"
 
@@ -24,10 +25,12 @@ __all__ = [
     "Design",
     "DesignError",
     "SimulationResult",
+    "Study",
     "apply_overrides",
     "build_model",
     "default_design",
     "load_design",
+    "load_study",
     "measure",
     "simulate",
     "write_design",
