@@ -239,10 +239,138 @@ def run_design(
         console.print(f"[yellow]hydrojam: warning: {result.message}[/yellow]")
 
 
+def _point_label(outcome) -> str:
+    p = outcome.points[0]
+    values = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in p.values.items())
+    return f"{p.sweep}[{p.index}] {values}"
+
+
+@app.command()
+def sweep(
+    study_file: Path = typer.Argument(..., help="Study file (TOML): a base design and named sweeps over it, see docs/sweeps.md."),
+    out: Path = typer.Option(..., "-o", "--out", help="Output folder: points/<key>/ per design, results.csv and .parquet; rerun to resume."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes, one thread each (default: one per CPU)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of a running dask scheduler, e.g. tcp://10.0.0.5:8786."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
+) -> None:
+    """Run every point of a study in parallel (dask), cached in OUT/points/, and write the table.
+
+    Points already finished in OUT (ok or not converged) are loaded, not run again; failed and
+    unfinished ones are run. Exit status 0 when every point reached its target stimulus, 1 when
+    any failed or stopped early (the table is still written), 2 on bad input.
+    """
+    from .design import DesignError
+    from .study import load_study
+    from .sweep import run_sweep
+
+    _check_workers(workers, scheduler, out)
+    if not study_file.is_file():
+        raise InputError(f"{study_file}: no such study file")
+    try:
+        study = load_study(study_file)
+    except DesignError as err:
+        raise InputError(str(err)) from None
+    _run_with_progress(lambda on_point: run_sweep(study, out, workers=workers, scheduler=scheduler,
+                                                  on_point=on_point), out, quiet)
+
+
+def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False) -> None:
+    """Run ``run_points(on_point)`` (a sweep) under a progress bar over points, print the summary
+    and exit 1 when a point failed or stopped early."""
+    import time
+
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from .design import DesignError
+    from .sweep import SchedulerError
+
+    console = Console(stderr=True)
+    counts = {"ok": 0, "not_converged": 0, "failed": 0}
+    cached = [0]
+    t0 = time.perf_counter()
+    columns = [TextColumn("[bold]points"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[info]}"),
+               TimeElapsedColumn()]
+    # started at the first point: a refused --scheduler leaves no progress bar behind
+    progress = Progress(*columns, console=console, disable=quiet, transient=False)
+    task = progress.add_task("points", total=None, info="")
+
+    def on_point(outcome, done, total):
+        if done == 1:
+            progress.start()
+        counts[outcome.status] = counts.get(outcome.status, 0) + 1
+        cached[0] += outcome.cached
+        if outcome.status == "failed":
+            info = f"[red]{_point_label(outcome)}: {outcome.error}[/red]"
+        else:
+            angle = (outcome.metrics or {}).get("bending_angle_deg")
+            info = _point_label(outcome) + (f": {angle:.1f} deg" if isinstance(angle, (int, float)) else "")
+            if outcome.status == "not_converged":
+                info = f"[yellow]{info} (stopped early)[/yellow]"
+        progress.update(task, completed=done, total=total, info=info + (" (cached)" if outcome.cached else ""))
+
+    try:
+        result = run_points(on_point)
+    except SchedulerError as err:
+        raise InputError(f"--scheduler: {err}") from None
+    except DesignError as err:
+        raise InputError(str(err)) from None
+    finally:
+        if progress.live.is_started:
+            progress.stop()
+    table = result[0] if isinstance(result, tuple) else result
+    wall = time.perf_counter() - t0
+    n = sum(counts.values())
+    if not quiet:
+        console.print(
+            f"hydrojam: {n} distinct points ({len(table)} rows): {counts['ok']} ok, "
+            f"{counts['not_converged']} not converged, {counts['failed']} failed; {cached[0]} cached, "
+            f"{n - cached[0]} computed; wall time {wall:.1f} s"
+        )
+        console.print(f"table: {out / 'results.csv'} and {out / 'results.parquet'}")
+        if report:
+            console.print(f"report: {result[1]} (figures in {out / 'figures'})")
+    if counts["failed"] or counts["not_converged"]:
+        console.print(f"[red]hydrojam: {counts['failed']} point(s) failed and {counts['not_converged']} stopped "
+                      f"early; see the status and error columns of {out / 'results.csv'} (a rerun retries the "
+                      f"failed ones)[/red]")
+        raise typer.Exit(code=1)
+
+
+def _check_workers(workers: Optional[int], scheduler: Optional[str], out: Path) -> None:
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers: must be >= 1 (got {workers})")
+    if workers is not None and scheduler is not None:
+        raise InputError("--workers: only without --scheduler (the scheduler's workers run the points)")
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out: {out} exists and is not a folder")
+
+
+@app.command()
+def reproduce(
+    out: Path = typer.Option(..., "-o", "--out", help="Output folder: report.md, figures/, results.csv/.parquet, points/; rerun to resume."),
+    quick: bool = typer.Option(False, "--quick", help="Coarser mesh and fewer points (12 rows, 10 designs): minutes, not hours."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes, one thread each (default: one per CPU)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of a running dask scheduler, e.g. tcp://10.0.0.5:8786."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
+) -> None:
+    """Reproduce the paper's Section IV (2D): the temperature, particle-layer and strain-limit
+    thickness sweeps, their figures and OUT/report.md (the paper's statements, agree/disagree).
+
+    Cached and resumable like `hydrojam sweep`. Exit status 0 when every point converged, 1 when
+    any failed or stopped early (the report is still written), 2 on bad input.
+    """
+    from .reproduce import reproduce as run_reproduce
+
+    _check_workers(workers, scheduler, out)
+    _run_with_progress(lambda on_point: run_reproduce(out, quick=quick, workers=workers, scheduler=scheduler,
+                                                      on_point=on_point), out, quiet, report=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydrojam`` command; returns the exit status."""
     try:
-        app(args=argv, standalone_mode=False)
+        # without standalone mode click returns a typer.Exit's code instead of raising it
+        status = app(args=argv, standalone_mode=False)
     except InputError as err:
         print(f"hydrojam: error: {err}", file=sys.stderr)
         return 2
@@ -255,7 +383,7 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except _click_exc.Exit as ex:
         return ex.exit_code
-    return 0
+    return status if isinstance(status, int) and not isinstance(status, bool) else 0
 
 
 if __name__ == "__main__":
