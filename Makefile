@@ -14,9 +14,8 @@ $(STAMP): pyproject.toml tools/bootstrap.sh
 demo: $(STAMP)
 	mkdir -p $(DEMO_OUT)
 	$(BIN)/hydrojam swell --t-min 275 --t-max 315 --t-step 2.5 --plot $(DEMO_OUT)/swelling.png
-	$(BIN)/hydrojam init $(DEMO_OUT)/design.toml --force
-	$(BIN)/hydrojam run $(DEMO_OUT)/design.toml -o $(DEMO_OUT)/run
-	@echo "results written: $(DEMO_OUT)/run (final.png, metrics.json, results.pvd for ParaView)"
+	$(BIN)/hydrojam reproduce --quick -o $(DEMO_OUT)/reproduce
+	@echo "report: $(DEMO_OUT)/reproduce/report.md (figures in $(DEMO_OUT)/reproduce/figures/; rerun to resume)"
 
 # -n auto: one pytest worker per CPU (the slow contact tests then run side by side)
 test: $(STAMP)

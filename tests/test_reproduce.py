@@ -199,6 +199,18 @@ def test_layer_claims_disagree():
     assert res.verdict == "disagree" and "from PL 15 to 16" in res.summary
 
 
+def test_curling_index_outside_unit_interval_is_not_used():
+    """A curling index outside [0, 1] (the rotation reverses along the actuator, e.g. -1.05 or
+    2.94 where the total rotation is near zero) says neither bending nor curling: such points are
+    skipped and named, and with too few left the transition is undetermined, not agreed."""
+    PLs = rp.PARTICLE_LAYERS
+    ci = {n: (0.4 if n <= 9 else 0.8) for n in PLs}
+    ci.update({n: (-1.05 if n % 2 else 2.94) for n in PLs if n >= 11})
+    res = {r.claim.id: r for r in rp.check_claims(with_values(layer_rows(), curling_index=ci))}["PL-curling"]
+    assert res.verdict == "undetermined"
+    assert "skipped" in res.summary and res.summary.count("outside [0, 1]") == 9  # PL 11..19
+
+
 def test_thickness_claims_disagree():
     rows = [row("strain_limit_thickness", "strain_limit_thickness", h, 100 - 5 * h, -(60 - 3 * h), -(20 - h))
             for h in rp.STRAIN_LIMIT_THICKNESSES_MM]
