@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+import tomllib
 from pathlib import Path
 
 
@@ -27,3 +28,21 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> None:
     """Write ``text`` to ``path`` atomically (UTF-8)."""
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
+
+
+def read_toml(path: str | os.PathLike, kind: str, error: type[Exception]) -> dict:
+    """The tables of a TOML file; ``error`` (e.g. DesignError) with one line naming the file and
+    the ``kind`` of file ("design", "study") when it is missing, unreadable or not valid TOML."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise error(f"{path}: {kind} file not found") from None
+    except OSError as err:
+        raise error(f"{path}: cannot read the {kind} file ({err.strerror or err})") from None
+    try:
+        return tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise error(f"{path}: not a UTF-8 text file") from None
+    except tomllib.TOMLDecodeError as err:
+        raise error(f"{path}: invalid TOML: {err}") from None

@@ -22,7 +22,7 @@ from typing import Literal
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from ._io import write_text_atomic
+from ._io import read_toml, write_text_atomic
 from ._validation import explain_error, field_range, submodel
 from .materials import HydrogelParams, NeoHookean, Yeoh
 
@@ -296,18 +296,7 @@ def design_from_dict(data: dict) -> Design:
 def load_design(path: str | os.PathLike) -> Design:
     """Read a design TOML file; raises DesignError naming the file for a missing or invalid one."""
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise DesignError(f"{path}: design file not found") from None
-    except OSError as err:
-        raise DesignError(f"{path}: cannot read the design file ({err.strerror or err})") from None
-    try:
-        data = tomllib.loads(raw.decode("utf-8"))
-    except UnicodeDecodeError:
-        raise DesignError(f"{path}: not a UTF-8 text file") from None
-    except tomllib.TOMLDecodeError as err:
-        raise DesignError(f"{path}: invalid TOML: {err}") from None
+    data = read_toml(path, "design", DesignError)
     try:
         return design_from_dict(data)
     except DesignError as err:

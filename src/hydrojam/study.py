@@ -27,7 +27,6 @@ import hashlib
 import itertools
 import json
 import os
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -35,7 +34,7 @@ from typing import Any
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator, model_validator
 
-from ._io import write_text_atomic
+from ._io import read_toml, write_text_atomic
 from ._validation import _short, explain_error, submodel
 from .design import Design, DesignError, _merge, _toml, default_design, design_from_dict, load_design
 
@@ -278,18 +277,7 @@ def study_from_dict(data: dict, root: str | os.PathLike | None = None) -> Study:
 def load_study(path: str | os.PathLike) -> Study:
     """Read a study TOML file; raises StudyError naming the file for a missing or invalid one."""
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise StudyError(f"{path}: study file not found") from None
-    except OSError as err:
-        raise StudyError(f"{path}: cannot read the study file ({err.strerror or err})") from None
-    try:
-        data = tomllib.loads(raw.decode("utf-8"))
-    except UnicodeDecodeError:
-        raise StudyError(f"{path}: not a UTF-8 text file") from None
-    except tomllib.TOMLDecodeError as err:
-        raise StudyError(f"{path}: invalid TOML: {err}") from None
+    data = read_toml(path, "study", StudyError)
     try:
         return study_from_dict(data, root=path.parent)
     except DesignError as err:
