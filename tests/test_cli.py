@@ -157,3 +157,33 @@ def test_run_writes_every_output(tmp_path, capsys):
     pvd = (out / "results.pvd").read_text()
     files = [line.split('file="')[1].split('"')[0] for line in pvd.splitlines() if "file=" in line]
     assert files and all((out / f).is_file() for f in files)
+
+
+def test_run_that_stops_early_exits_1_with_its_last_state_written(tmp_path, capsys, monkeypatch):
+    """A solver that stops early: exit status 1, results from the last converged state with
+    "converged": false, and no NaN (the run's own early stop is stood in for by a simulate that
+    returns the as-prepared state unconverged)."""
+    import sys
+
+    from hydrojam.model import measure
+    from hydrojam.simulate import SimulationResult, StepState
+
+    sim = sys.modules["hydrojam.simulate"]
+
+    def stops_early(model, on_step=None, **kw):
+        X = model.mesh.points
+        mu, T = model.stimulus(0.0)
+        state = StepState(0, 0.0, mu, T, X.copy(), measure(model, X), 0, 0.0)
+        if on_step is not None:
+            on_step(state)
+        return SimulationResult(model, [state], False, "load step failed at s = 0.05 (test)", 0.0, 0, 1,
+                                {"total": 0.0}, {})
+
+    monkeypatch.setattr(sim, "simulate", stops_early)
+    design = tmp_path / "d.toml"
+    run(capsys, "init", str(design), "--set", "particle_layers=1")
+    out = tmp_path / "out"
+    rc, _, err = run(capsys, "run", str(design), "-o", str(out), "--quiet")
+    assert rc == 1 and "stopped early" in err
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["converged"] is False and m["s_reached"] == 0.0
