@@ -274,11 +274,12 @@ def test_cli_summary_and_exit_status_over_cached_points(capsys, scheduler, tmp_p
     real simulation behind `hydrojam sweep` runs in the README's example)."""
     path = tmp_path / "study.toml"
     write_study(path, small_study())
-    run_sweep(small_study(), tmp_path / "out", scheduler=scheduler, point_fn=cheap_not_converged_295)
-    rc, _, err = _cli(capsys, "sweep", str(path), "-o", str(tmp_path / "out"))
+    out = tmp_path / ("long-folder-name-" * 5) / "out"  # a path longer than the console is wide
+    run_sweep(small_study(), out, scheduler=scheduler, point_fn=cheap_not_converged_295)
+    rc, _, err = _cli(capsys, "sweep", str(path), "-o", str(out))
     assert rc == 1  # one point stopped early
     assert "5 ok, 1 not converged, 0 failed; 6 cached, 0 computed" in " ".join(err.split())
-    assert "results.csv" in err
+    assert f"table: {out / 'results.csv'}" in err  # paths are printed whole, never wrapped
 
     ok_study = study_from_dict({"design": {"particle_layers": 1, "mesh": {"size": 4.0}},
                                 "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [275, 280]}}]})

@@ -326,13 +326,13 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False)
             f"{counts['not_converged']} not converged, {counts['failed']} failed; {cached[0]} cached, "
             f"{n - cached[0]} computed; wall time {wall:.1f} s"
         )
-        console.print(f"table: {out / 'results.csv'} and {out / 'results.parquet'}")
+        console.print(f"table: {out / 'results.csv'} and {out / 'results.parquet'}", soft_wrap=True)
         if report:
-            console.print(f"report: {result[1]} (figures in {out / 'figures'})")
+            console.print(f"report: {result[1]} (figures in {out / 'figures'})", soft_wrap=True)
     if counts["failed"] or counts["not_converged"]:
         console.print(f"[red]hydrojam: {counts['failed']} point(s) failed and {counts['not_converged']} stopped "
                       f"early; see the status and error columns of {out / 'results.csv'} (a rerun retries the "
-                      f"failed ones)[/red]")
+                      f"failed ones)[/red]", soft_wrap=True)
         raise typer.Exit(code=1)
 
 
