@@ -341,22 +341,25 @@ def test_plot_shapes_and_trends(study_dir, tmp_path):
 
 
 def test_read_shape_moves_reference_points_by_displacement(tmp_path):
-    """A VTU in results.write_vtu's layout (reference points + displacement) is read as deformed."""
-    design = default_design()
-    outline = rp._outline(design)
-    corners = outline[:4]
+    """A VTU in results.write_vtu's layout (reference points + displacement) is read as deformed,
+    with the reference points' bounding box as the undeformed outline."""
+    corners = np.array([[-14.1, 0.0], [10.1, 0.0], [10.1, -88.5], [-14.1, -88.5]])
     p, c = tri6(corners, CORNERS)
     disp = np.tile([1.5, -2.0], (len(p), 1))
     xyz = lambda a: np.column_stack([a[:, 0], np.zeros(len(a)), a[:, 1]])  # noqa: E731
     meshio.write(tmp_path / "final.vtu", meshio.Mesh(xyz(p), [("triangle6", c)], point_data={"displacement": xyz(disp)},
                                                      cell_data={"body_id": [np.array([0, 1], dtype=np.int32)]}))
-    pts, tris, body = rp._read_shape(tmp_path, outline)
+    pts, tris, body, outline = rp._read_shape(tmp_path)
     np.testing.assert_allclose(pts, p + disp)
     assert tris.shape == (8, 3) and list(body) == [0] * 4 + [1] * 4
-    # deformed points (the sweep's layout) are taken as they are
+    np.testing.assert_allclose(outline.min(axis=0), [-14.1, -88.5])
+    np.testing.assert_allclose(outline.max(axis=0), [10.1, 0.0])
+    # without a displacement field the points are taken as deformed, and there is no outline
     meshio.write(tmp_path / "final.vtu", meshio.Mesh(xyz(p + disp), [("triangle6", c)],
                                                      cell_data={"body_id": [np.array([0, 1], dtype=np.int32)]}))
-    np.testing.assert_allclose(rp._read_shape(tmp_path, outline)[0], p + disp)
+    pts, _, _, outline = rp._read_shape(tmp_path)
+    np.testing.assert_allclose(pts, p + disp)
+    assert outline is None
 
 
 def test_report(study_dir):

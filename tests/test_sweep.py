@@ -167,6 +167,8 @@ def test_finished_points_are_loaded_not_run(scheduler, tmp_path):
     row = next(r for r in again.rows if r["stimulus.temperature"] == 295.0)
     assert row["status"] == "not_converged" and row["converged"] is False
     assert row["error"] == "the load step fell below ds_min at s = 0.6"
+    # with every point cached a scheduler is not needed: an unreachable one is not contacted
+    assert run_sweep(small_study(), out, scheduler="tcp://127.0.0.1:1", point_fn=cheap).to_csv() == first.to_csv()
 
 
 def test_csv_and_parquet_agree_typed_without_nan(scheduler, tmp_path):

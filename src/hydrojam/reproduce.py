@@ -44,6 +44,7 @@ import numpy as np  # noqa: E402
 
 from ._io import atomic_path, write_text_atomic  # noqa: E402
 from .design import Design, apply_overrides, default_design  # noqa: E402
+from .plots import _TRI6_SPLIT  # noqa: E402
 
 __all__ = [
     "ANGLE_TOL",
@@ -620,7 +621,6 @@ def check_claims(table) -> list[ClaimResult]:
 # Figures
 
 _COLOURS = {"membrane": "0.82", "strain_limit": "0.45", "particle": "#3ba7d6"}
-_TRI6_SPLIT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
 SHAPES_MAX_COLUMNS = 5
 DPI = 150
 
@@ -631,41 +631,24 @@ def _sweep_for(param: str, label: str | None = None, unit: str | None = None) ->
     return symbol, label or (sw.label if sw else param), unit if unit is not None else (sw.unit if sw else "")
 
 
-def _point_design(point_dir: Path):
-    from .design import DesignError, load_design
+def _read_shape(point_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """Deformed positions (n, 2), triangles (k, 3), their body ids and the undeformed outer outline
+    (a closed rectangle (5, 2), or None) from ``final.vtu``, all in (x, z) [mm].
 
-    try:
-        return load_design(point_dir / "design.toml")
-    except DesignError:
-        return None
-
-
-def _outline(design) -> np.ndarray | None:
-    """The undeformed outer outline, a closed rectangle (5, 2) in (x, z) [mm] (DESIGN.md section 6)."""
-    if design is None:
-        return None
-    x0 = -design.cavity_width_mm / 2 - design.side_wall_thickness - design.strain_limit_thickness
-    x1 = design.cavity_width_mm / 2 + design.side_wall_thickness
-    z0 = -design.length_mm
-    return np.array([[x0, 0.0], [x1, 0.0], [x1, z0], [x0, z0], [x0, 0.0]])
-
-
-def _read_shape(point_dir: Path, outline: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Deformed positions (n, 2), triangles (k, 3) and their body ids from ``final.vtu``.
-
-    The file holds the deformed points; a VTU with the reference points and a ``displacement``
-    field (as :func:`hydrojam.results.write_vtu` writes) is recognised by its points filling the
-    undeformed outline exactly, and moved."""
+    :func:`hydrojam.results.write_vtu` writes the reference points and a ``displacement`` field:
+    the deformed points are their sum and the outline is the reference points' bounding box
+    (the actuator is a rectangle, DESIGN.md section 6). Without a displacement field the points
+    are taken as deformed and no outline is drawn."""
     import meshio
 
     mesh = meshio.read(point_dir / "final.vtu")
     pts = np.asarray(mesh.points, dtype=float)[:, [0, 2]]
     disp = mesh.point_data.get("displacement")
-    if disp is not None and outline is not None:
-        lo, hi = outline.min(axis=0), outline.max(axis=0)
-        tol = 1e-6 * max(1.0, float(np.ptp(outline)))
-        if np.allclose(pts.min(axis=0), lo, atol=tol) and np.allclose(pts.max(axis=0), hi, atol=tol):
-            pts = pts + np.asarray(disp, dtype=float)[:, [0, 2]]
+    outline = None
+    if disp is not None:
+        (x0, z0), (x1, z1) = pts.min(axis=0), pts.max(axis=0)
+        outline = np.array([[x0, z1], [x1, z1], [x1, z0], [x0, z0], [x0, z1]])
+        pts = pts + np.asarray(disp, dtype=float)[:, [0, 2]]
     tris, bodies = [], []
     body_data = mesh.cell_data.get("body_id")
     for i, block in enumerate(mesh.cells):
@@ -682,7 +665,7 @@ def _read_shape(point_dir: Path, outline: np.ndarray | None) -> tuple[np.ndarray
             bodies.append(body)
     if not tris:
         raise ValueError("no triangles in final.vtu")
-    return pts, np.concatenate(tris), np.concatenate(bodies)
+    return pts, np.concatenate(tris), np.concatenate(bodies), outline
 
 
 def _body_outlines(tris: np.ndarray, body: np.ndarray) -> np.ndarray:
@@ -724,10 +707,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         if _status(row) == "failed" or not row.get("point_dir"):
             panel["failed"] = _failure_text(row)
         else:
-            design = _point_design(pdir)
-            panel["outline"] = _outline(design)
             try:
-                panel["shape"] = _read_shape(pdir, panel["outline"])
+                pts, tris, body, panel["outline"] = _read_shape(pdir)
+                panel["shape"] = (pts, tris, body)
             except Exception as err:  # noqa: BLE001 - a figure must survive one bad file
                 panel["failed"] = _failure_text(row, f"cannot read final.vtu ({type(err).__name__}: {err})")
         panels.append(panel)

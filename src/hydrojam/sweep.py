@@ -334,13 +334,14 @@ def estimated_cost(design: Design) -> float:
     return design.particle_layers * design.particles_per_layer / design.mesh.size**2
 
 
-def _connect(address: str):
-    from distributed import Client
+def _check_address(address: str) -> None:
+    """SchedulerError at once for a malformed address (a Client made of one hangs 20 s when
+    collected)."""
     from distributed.comm.addressing import get_address_host_port
     from distributed.comm.registry import backends
 
     scheme = address.split("://", 1)[0] if "://" in address else "tcp"
-    try:  # a malformed address fails here at once (a Client made of it hangs 20 s when collected)
+    try:
         if scheme not in backends:
             raise ValueError(f"unknown scheme {scheme!r} (known: {', '.join(sorted(backends))})")
         if scheme in ("tcp", "tls", "ws", "wss"):
@@ -348,6 +349,12 @@ def _connect(address: str):
     except ValueError as err:
         raise SchedulerError(
             f"{address}: not a scheduler address, e.g. tcp://10.0.0.5:8786 ({_one_line(err)})") from None
+
+
+def _connect(address: str):
+    from distributed import Client
+
+    _check_address(address)
     try:
         return Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
     except (OSError, ValueError, TypeError) as err:
@@ -355,12 +362,16 @@ def _connect(address: str):
 
 
 def _local_cluster(n_workers: int):
+    import dask
     from distributed import Client, LocalCluster
 
     # one single-threaded process per core: hydrojam's PARDISO and IPC run one thread each
     # ":0": its HTTP server (which starts even without a dashboard) on a free port, not 8787
-    cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=logging.ERROR, memory_limit=0)
+    # allowed-failures 0: a point that kills its worker (memory, a crash) is recorded as failed
+    # at once, not retried 3 more times on fresh workers (a rerun of the sweep retries it)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               silence_logs=logging.ERROR, memory_limit=0)
     try:
         return cluster, Client(cluster, set_as_default=False)
     except BaseException:
@@ -416,8 +427,8 @@ def run_sweep(
 
     client = cluster = None
     try:
-        if scheduler is not None:
-            client = _connect(scheduler)
+        if scheduler is not None:  # connected only when there is something to run
+            client = _connect(scheduler) if pending else _check_address(scheduler)
         write_study(out / "study.toml", study)
         total, done = len(groups), 0
         for key in groups:
