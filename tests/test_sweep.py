@@ -290,3 +290,14 @@ def test_cli_summary_and_exit_status_over_cached_points(capsys, scheduler, tmp_p
     rc, out, err = _cli(capsys, "sweep", str(path), "-o", str(tmp_path / "ok"), "--quiet")
     assert rc == 0 and out == "" and err == ""
     assert SweepTable.read(tmp_path / "ok").column("bending_angle_deg") == [25.0, 20.0]
+
+
+def test_table_column_types_follow_the_design_fields():
+    """A varied field's column has its Design field's type: Literal[2, 3] -> int, an optional
+    float -> float, a Literal of strings -> str (the Parquet column type follows)."""
+    from hydrojam.sweep import _field_type
+
+    assert _field_type("dimension") is int
+    assert _field_type("cavity_width") is float
+    assert _field_type("stimulus.path") is str
+    assert _field_type("particle_layers") is int and _field_type("mesh.size") is float

@@ -35,10 +35,11 @@ import os
 import shutil
 import time
 import traceback
+import types
 import typing
 import uuid
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -165,8 +166,8 @@ def _field_type(path: str) -> type:
     """The Python type (bool, int, float, str) of a dotted Design field."""
     owner = owner_model(Design, path)
     ann = owner[0].model_fields[owner[1]].annotation if owner else str
-    args = [a for a in typing.get_args(ann) if a is not type(None)] if typing.get_origin(ann) is not None else [ann]
-    ann = args[0] if args else str
+    if typing.get_origin(ann) in (typing.Union, types.UnionType):  # Optional[X]: X
+        ann = next((a for a in typing.get_args(ann) if a is not type(None)), str)
     if typing.get_origin(ann) is typing.Literal:
         ann = type(typing.get_args(ann)[0])
     return ann if ann in (bool, int, float, str) else str
@@ -313,20 +314,34 @@ def build_table(study: Study, records: dict[str, dict]) -> SweepTable:
 class PointOutcome:
     """The outcome of one distinct design: its record (point.json) and the study points sharing it."""
 
-    key: str
-    status: str
-    error: str | None
-    metrics: dict | None
-    wall_time_s: float | None
+    record: dict
     cached: bool
     points: tuple[Point, ...]
     point_dir: Path
-    record: dict = field(repr=False, default_factory=dict)
 
     @classmethod
     def from_record(cls, record: dict, points: list[Point], point_dir: Path, cached: bool) -> PointOutcome:
-        return cls(record.get("key", points[0].key), record.get("status", "failed"), record.get("error"),
-                   record.get("metrics"), record.get("wall_time_s"), cached, tuple(points), point_dir, record)
+        return cls(record, cached, tuple(points), point_dir)
+
+    @property
+    def key(self) -> str:
+        return self.record.get("key", self.points[0].key)
+
+    @property
+    def status(self) -> str:
+        return self.record.get("status", "failed")
+
+    @property
+    def error(self) -> str | None:
+        return self.record.get("error")
+
+    @property
+    def metrics(self) -> dict | None:
+        return self.record.get("metrics")
+
+    @property
+    def wall_time_s(self) -> float | None:
+        return self.record.get("wall_time_s")
 
 
 def estimated_cost(design: Design) -> float:
