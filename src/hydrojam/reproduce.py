@@ -43,6 +43,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ._io import atomic_path, write_text_atomic  # noqa: E402
+from . import __version__  # noqa: E402
 from .design import Design, apply_overrides, default_design  # noqa: E402
 from .plots import _TRI6_SPLIT  # noqa: E402
 
@@ -867,15 +868,6 @@ def _md(text: str) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
 
 
-def _version() -> str:
-    try:
-        from . import __version__
-
-        return __version__
-    except ImportError:  # pragma: no cover
-        return "unknown"
-
-
 def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
     head = f"{sw.symbol} [{sw.unit}]" if sw.unit != "layers" else sw.symbol
     lines = [f"| {head} | θ [deg] | δx [mm] | δz [mm] | curling index | converged | Newton iterations | "
@@ -920,17 +912,17 @@ def _tolerance_text() -> list[str]:
 
 def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float | None,
                  explanations: dict[str, str] | None = None, *, workers: int | None = None,
-                 scheduler: str | None = None) -> Path:
+                 scheduler: str | None = None, base: Design | None = None) -> Path:
     """Write ``OUT/report.md`` (atomically) and return its path.
 
     What was run (quick or full, mesh size, points, workers, wall time, hydrojam version); per
     sweep its figures (``figures/<sweep>_shapes.png``, ``_trends.png``, when written) and a table
     of the points; the claims of PAPER_CLAIMS with hydrojam's numbers and verdicts, the "why" of a
     disagreement from ``explanations`` (claim id -> text) or DISAGREEMENT_REASONS; the tolerances
-    and the model differences.
+    and the model differences. ``base``: the study's base design (default :func:`paper_base`).
     """
     out = Path(out)
-    base = _run_base(out, quick)
+    base = base if base is not None else paper_base(quick)
     results = check_claims(table)
     why = {**DISAGREEMENT_REASONS, **(explanations or {})}
     all_rows = [r for sw in PAPER_SWEEPS for r in _rows_of(table, sw.name)]
@@ -945,7 +937,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     L = ["# hydrojam reproduction of Chen, Schott & Jovanova, Section IV (Figs. 6-11)", ""]
     L += ["## What was run", ""]
     L += [f"- Study: **{'quick' if quick else 'full'}** (`hydrojam reproduce{' --quick' if quick else ''}`), "
-          f"hydrojam {_version()}.",
+          f"hydrojam {__version__}.",
           f"- Base design: the default (PL {base.particle_layers}, h = {base.strain_limit_thickness:g} mm, "
           f"T = {base.stimulus.temperature:g} K, d = {base.particle_diameter:g} mm, frictionless), "
           f"2D plane strain (particles are cylinders), mesh size {base.mesh.size:g} mm (quadratic triangles).",
@@ -989,16 +981,6 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     return path
 
 
-def _run_base(out: Path, quick: bool) -> Design:
-    """The base design of the study run into ``out`` (its study.toml), else :func:`paper_base`."""
-    try:
-        from .study import load_study
-
-        return load_study(out / "study.toml").base
-    except Exception:  # noqa: BLE001 - no study file (or no hydrojam.study): the paper's base
-        return paper_base(quick)
-
-
 def _workers_text(workers: int | None, scheduler: str | None) -> str:
     if scheduler:
         return f"the dask scheduler at {scheduler}"
@@ -1028,7 +1010,9 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
 
     out = Path(out)
     t0 = time.perf_counter()
-    table = run_sweep(paper_study(quick), out, workers=workers, scheduler=scheduler, on_point=on_point)
+    study = paper_study(quick)
+    table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point)
     write_figures(out, table)
-    report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler)
+    report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler,
+                          base=study.base)
     return table, report
