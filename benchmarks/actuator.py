@@ -22,9 +22,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import fmt, print_environment, print_load, table  # noqa: E402
 
-from hydrojam.design import apply_overrides, default_design  # noqa: E402
-from hydrojam.model import build_model  # noqa: E402
-from hydrojam.simulate import simulate  # noqa: E402
+from hydrojam.actuator.design import apply_overrides, default_design  # noqa: E402
+from hydrojam.actuator.model import build_model  # noqa: E402
+from hydrojam.actuator.simulate import simulate  # noqa: E402
 
 
 def main(argv=None) -> int:

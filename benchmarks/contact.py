@@ -94,15 +94,15 @@ from _common import (  # noqa: E402
     fmt, fmt_slope, growth_exponent, median_time, print_environment, print_load, section, table,
 )
 
-from hydrojam import _gmsh  # noqa: E402
-from hydrojam.assembly import Block, Solid  # noqa: E402
-from hydrojam.contact import Contact, ContactSettings  # noqa: E402
-from hydrojam.elements import element_for_meshio_type  # noqa: E402
-from hydrojam.linsolve import LinearSolver  # noqa: E402
-from hydrojam.materials import Hydrogel, HydrogelParams, NeoHookean  # noqa: E402
-from hydrojam.mesh import Mesh, merge  # noqa: E402
-from hydrojam.solver import Problem, Timings, fixed, solve_path  # noqa: E402
-from hydrojam.swelling import constrained_swelling  # noqa: E402
+from hydrojam.fem import meshing as _gmsh  # noqa: E402
+from hydrojam.fem.assembly import Block, Solid  # noqa: E402
+from hydrojam.fem.contact import Contact, ContactSettings  # noqa: E402
+from hydrojam.fem.elements import element_for_meshio_type  # noqa: E402
+from hydrojam.fem.linsolve import LinearSolver  # noqa: E402
+from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean  # noqa: E402
+from hydrojam.fem.mesh import Mesh, merge  # noqa: E402
+from hydrojam.fem.solver import Problem, Timings, fixed, solve_path  # noqa: E402
+from hydrojam.materials.swelling import constrained_swelling  # noqa: E402
 
 PARAMS = HydrogelParams()
 GEL = Hydrogel(PARAMS)

@@ -33,7 +33,7 @@ def main(argv=None) -> int:
     ap.add_argument("-o", "--out", type=Path, default=None, help="output folder (default: temporary)")
     args = ap.parse_args(argv)
 
-    from hydrojam.reproduce import reproduce
+    from hydrojam.paper.reproduce import reproduce
 
     print_environment(["numpy", "scipy", "ipctk", "gmsh", "pypardiso", "distributed"])
     print_load()

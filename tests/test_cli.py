@@ -87,7 +87,7 @@ def test_installed_command_exits_2_without_traceback(tmp_path):
 
 
 def test_init_writes_the_default_design_and_refuses_to_overwrite(tmp_path, capsys):
-    from hydrojam.design import default_design, load_design
+    from hydrojam.actuator.design import default_design, load_design
 
     path = tmp_path / "design.toml"
     rc, _, _ = run(capsys, "init", str(path))
@@ -134,7 +134,7 @@ def test_run_refuses_a_bad_override_and_a_missing_file(tmp_path, capsys):
 def test_run_writes_every_output(tmp_path, capsys):
     """The as-prepared stimulus (nothing moves, so it is quick): every documented file appears,
     the pvd lists the VTU files, metrics.json has the documented keys and no NaN."""
-    from hydrojam.design import default_design, load_design
+    from hydrojam.actuator.design import default_design, load_design
 
     d = default_design()
     design = tmp_path / "d.toml"
@@ -165,10 +165,10 @@ def test_run_that_stops_early_exits_1_with_its_last_state_written(tmp_path, caps
     returns the as-prepared state unconverged)."""
     import sys
 
-    from hydrojam.model import measure
-    from hydrojam.simulate import SimulationResult, StepState
+    from hydrojam.actuator.model import measure
+    from hydrojam.actuator.simulate import SimulationResult, StepState
 
-    sim = sys.modules["hydrojam.simulate"]
+    sim = sys.modules["hydrojam.actuator.simulate"]
 
     def stops_early(model, on_step=None, **kw):
         X = model.mesh.points

@@ -1,9 +1,15 @@
 """hydrojam: simulator for active particle jamming actuators (PNIPAM hydrogel particles in an
-elastomer chamber). Units: mm, MPa, mJ, K; chemical potential in k_B T."""
+elastomer chamber). Units: mm, MPa, mJ, K; chemical potential in k_B T.
 
-from .design import Design, DesignError, apply_overrides, default_design, load_design, write_design
-from .materials import KT_OVER_NU_MPA, Hydrogel, HydrogelParams, Material, MaterialResponse, NeoHookean, Yeoh
-from .swelling import (
+``import hydrojam`` loads the materials and the design schema only: the names that need gmsh or
+ipctk (the model, the simulation, studies) are imported on first use.
+"""
+
+__version__ = "0.1.0"
+
+from hydrojam.actuator.design import Design, DesignError, apply_overrides, default_design, load_design, write_design
+from hydrojam.materials.energies import KT_OVER_NU_MPA, Hydrogel, HydrogelParams, Material, MaterialResponse, NeoHookean, Yeoh
+from hydrojam.materials.swelling import (
     SwellingState,
     Transition,
     constrained_swelling,
@@ -14,11 +20,23 @@ from .swelling import (
     transition_temperature,
 )
 
-from .model import ActuatorModel, build_model, measure
-from .simulate import SimulationResult, simulate
-from .study import Study, load_study
+_LAZY = {
+    "ActuatorModel": "hydrojam.actuator.model",
+    "build_model": "hydrojam.actuator.model",
+    "measure": "hydrojam.actuator.model",
+    "SimulationResult": "hydrojam.actuator.simulate",
+    "simulate": "hydrojam.actuator.simulate",
+    "Study": "hydrojam.study.spec",
+    "load_study": "hydrojam.study.spec",
+}
 
-__version__ = "0.1.0"
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'hydrojam' has no attribute {name!r}")
 
 __all__ = [
     "ActuatorModel",

@@ -17,10 +17,10 @@ from pydantic import ValidationError
 from rich.console import Console
 from rich.table import Table
 
-from ._io import write_text_atomic
-from ._validation import describe_error
-from .materials import HydrogelParams
-from .swelling import swelling_curve
+from hydrojam._io import write_text_atomic
+from hydrojam._validation import describe_error
+from hydrojam.materials.energies import HydrogelParams
+from hydrojam.materials.swelling import swelling_curve
 
 try:  # typer >= 0.2x vendors its own click
     from typer._click import exceptions as _click_exc
@@ -109,7 +109,7 @@ def swell(
         {"T": s.T, "stretch": s.stretch, "stretch_rel": s.stretch_rel, "J": s.J, "branch": s.branch} for s in states
     ]
     if plot is not None:
-        from .plots import plot_swelling_curve
+        from hydrojam.materials.plots import plot_swelling_curve
 
         plot_swelling_curve(params, mu, states, transition, plot)
 
@@ -145,8 +145,8 @@ def swell(
 
 
 def _design_or_exit(design_file: Path | None, overrides: list[str]):
-    from .design import DesignError, apply_overrides, default_design, load_design
-    from .model import check_supported
+    from hydrojam.actuator.design import DesignError, apply_overrides, default_design, load_design
+    from hydrojam.actuator.model import check_supported
 
     try:
         design = default_design() if design_file is None else load_design(design_file)
@@ -164,7 +164,7 @@ def init(
     overrides: list[str] = typer.Option([], "--set", help="Change a field, e.g. --set particle_layers=7 (repeatable)."),
 ) -> None:
     """Write the default actuator design as a commented TOML file (every field, units, ranges)."""
-    from .design import write_design
+    from hydrojam.actuator.design import write_design
 
     if path.exists() and not force:
         raise InputError(f"{path}: exists; use --force to overwrite it")
@@ -191,9 +191,9 @@ def run_design(
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from .model import build_model
-    from .results import ResultWriter
-    from .simulate import simulate
+    from hydrojam.actuator.model import build_model
+    from hydrojam.actuator.results import ResultWriter
+    from hydrojam.actuator.simulate import simulate
 
     if not design_file.is_file():
         raise InputError(f"{design_file}: no such design file")
@@ -259,9 +259,9 @@ def sweep(
     unfinished ones are run. Exit status 0 when every point reached its target stimulus, 1 when
     any failed or stopped early (the table is still written), 2 on bad input.
     """
-    from .design import DesignError
-    from .study import load_study
-    from .sweep import run_sweep
+    from hydrojam.actuator.design import DesignError
+    from hydrojam.study.spec import load_study
+    from hydrojam.study.sweep import run_sweep
 
     _check_workers(workers, scheduler, out)
     if not study_file.is_file():
@@ -281,8 +281,8 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False)
 
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from .design import DesignError
-    from .sweep import SchedulerError
+    from hydrojam.actuator.design import DesignError
+    from hydrojam.study.sweep import SchedulerError
 
     console = Console(stderr=True)
     counts = {"ok": 0, "not_converged": 0, "failed": 0}
@@ -359,7 +359,7 @@ def reproduce(
     Cached and resumable like `hydrojam sweep`. Exit status 0 when every point converged, 1 when
     any failed or stopped early (the report is still written), 2 on bad input.
     """
-    from .reproduce import reproduce as run_reproduce
+    from hydrojam.paper.reproduce import reproduce as run_reproduce
 
     _check_workers(workers, scheduler, out)
     _run_with_progress(lambda on_point: run_reproduce(out, quick=quick, workers=workers, scheduler=scheduler,

@@ -1,0 +1,450 @@
+"""The actuator design: one validated, frozen description of what to simulate (DESIGN.md 2-6).
+
+A :class:`Design` is read from and written to TOML. Units: length mm, stress MPa, temperature K,
+chemical potential k_B T. Every invalid input raises :class:`DesignError` with one line naming
+the field (dotted, e.g. ``stimulus.temperature``), the problem, the allowed range and the value
+given.
+
+Geometry (DESIGN.md section 6): x is the bending direction (strain-limit layer on the -x side),
+z the actuator axis (clamped top at z = 0, free end at z = -L), y the depth (3D only).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import textwrap
+import tomllib
+import typing
+from pathlib import Path
+from typing import Literal
+
+import tomli_w
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from hydrojam._io import read_toml, write_text_atomic
+from hydrojam._validation import explain_error, field_range, submodel
+from hydrojam.materials.energies import HydrogelParams, NeoHookean, Yeoh
+
+_REL_TOL = 1e-9  # relative slack of the fit checks: a derived cavity fits exactly
+_YEOH_I1_RANGE = 30.0  # Yeoh stiffness must stay positive for 0 <= I1bar - 3 <= this (uniaxial stretch ~5.6)
+
+__all__ = [
+    "Design",
+    "DesignError",
+    "ElastomerSpec",
+    "MeshSpec",
+    "StimulusSpec",
+    "apply_overrides",
+    "default_design",
+    "design_from_dict",
+    "design_to_toml",
+    "load_design",
+    "write_design",
+]
+
+
+class DesignError(ValueError):
+    """Invalid design: one line naming the field (dotted, e.g. 'stimulus.temperature') and its allowed range."""
+
+
+def _g(x: float) -> str:
+    return f"{x:g}"
+
+
+_CONFIG = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class ElastomerSpec(BaseModel):
+    """An elastomer (membrane or strain-limit layer): compressible neo-Hookean or Yeoh (DESIGN.md 4).
+
+    Default: Ecoflex 00-30, G = 0.023 MPa, Poisson's ratio 0.45. Checks: C20, C30 only with
+    ``model = "yeoh"``; a Yeoh fit must keep dW/dI1bar = C10 + 2 C20 x + 3 C30 x^2 > 0 for
+    0 <= x = I1bar - 3 <= 30 (uniaxial stretch up to about 5.6), i.e. a positive shear stiffness
+    over the strains the elastomer can reach.
+    """
+
+    model_config = _CONFIG
+
+    model: Literal["neo-hookean", "yeoh"] = Field("neo-hookean", description="constitutive model")
+    shear_modulus: float = Field(
+        0.023, gt=0, le=1e4, description="initial shear modulus G (neo-Hookean G; Yeoh 2 C10) [MPa]"
+    )
+    c20: float = Field(0.0, description="Yeoh coefficient C20, only with model = 'yeoh' [MPa]")
+    c30: float = Field(0.0, description="Yeoh coefficient C30, only with model = 'yeoh' [MPa]")
+    poisson_ratio: float = Field(
+        0.45, ge=0, lt=0.5, description="small-strain Poisson's ratio nu; bulk modulus derived [-]"
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> ElastomerSpec:
+        if self.model == "neo-hookean":
+            for name in ("c20", "c30"):
+                value = getattr(self, name)
+                if value != 0.0:
+                    raise ValueError(
+                        f"{name}: only for model = 'yeoh'; must be 0 with model 'neo-hookean' (got {_g(value)})"
+                    )
+            return self
+        c10, c20, c30 = 0.5 * self.shear_modulus, self.c20, self.c30
+        xs = [0.0, _YEOH_I1_RANGE]
+        if c30 > 0.0:
+            xs.append(min(max(-c20 / (3.0 * c30), 0.0), _YEOH_I1_RANGE))
+        x = min(xs, key=lambda x: c10 + 2.0 * c20 * x + 3.0 * c30 * x * x)
+        if c10 + 2.0 * c20 * x + 3.0 * c30 * x * x <= 0.0:
+            name = "c30" if c30 < 0.0 else "c20"
+            raise ValueError(
+                f"{name}: the Yeoh shear stiffness C10 + 2 C20 x + 3 C30 x^2 (C10 = shear_modulus/2) "
+                f"is <= 0 at x = I1bar - 3 = {x:.3g}; it must stay > 0 for 0 <= x <= {_g(_YEOH_I1_RANGE)} "
+                f"(got C10 = {_g(c10)}, C20 = {_g(c20)}, C30 = {_g(c30)} MPa)"
+            )
+        return self
+
+    def material(self) -> NeoHookean | Yeoh:
+        """The energy density: NeoHookean(G, nu) or Yeoh(C10 = G/2, C20, C30, nu)."""
+        if self.model == "yeoh":
+            return Yeoh(c10=0.5 * self.shear_modulus, c20=self.c20, c30=self.c30, poisson_ratio=self.poisson_ratio)
+        return NeoHookean(shear_modulus=self.shear_modulus, poisson_ratio=self.poisson_ratio)
+
+
+class StimulusSpec(BaseModel):
+    """Target stimulus (mu [k_B T], T [K]) and the path from the as-prepared (mu0, T0) to it (DESIGN.md 3)."""
+
+    model_config = _CONFIG
+
+    temperature: float = Field(275.0, ge=273.15, le=373.15, description="target temperature T [K]")
+    mu: float = Field(0.0, le=0.0, description="target solvent chemical potential mu; 0 = pure water [kT]")
+    path: Literal["swelling", "linear"] = Field(
+        "swelling",
+        description="load path from (mu0, T0) to the target: 'linear' in the load parameter s, or "
+        "'swelling' (s spaced evenly in the free-swelling log-volume)",
+    )
+
+
+class MeshSpec(BaseModel):
+    """Finite-element mesh controls: quadratic triangles (2D) / tetrahedra (3D)."""
+
+    model_config = _CONFIG
+
+    size: float = Field(2.0, gt=0, description="target element edge length, quadratic elements [mm]")
+
+
+class Design(BaseModel):
+    """A particle-jamming bending actuator: geometry, materials, stimulus and mesh (DESIGN.md 6).
+
+    Cavity sizes left out (None) are derived from the particles: width ``m d + (m + 1) c``, length
+    ``PL d + (PL + 1) c``, depth (3D) ``d + 2 c`` (m particles per layer, PL layers, d diameter,
+    c clearance). Checks, each naming the field and the bound it must meet:
+
+    - numbers are finite (no inf/nan, including the hydrogel constants);
+    - ``clearance < particle_diameter / 4`` (a clearance is a gap, not a loose fit);
+    - the particles fit: across ``m d + (m + 1) c <= cavity_width``, along
+      ``PL d + (PL + 1) c <= cavity_length``, and in 3D ``d + 2 c <= cavity_depth``
+      (relative tolerance 1e-9): the initial mesh must be intersection-free;
+    - ``cavity_depth`` only with ``dimension = 3`` (2D is plane strain: no depth to set);
+    - ``mesh.size <= particle_diameter / 4`` (about 12 or more quadratic edges round a particle)
+      and ``mesh.size <= cavity_length``;
+    - the elastomers' own checks (:class:`ElastomerSpec`).
+    """
+
+    model_config = _CONFIG
+
+    dimension: Literal[2, 3] = Field(
+        2, description="2: plane strain in x-z (cylindrical particles); 3: spheres (schema only for now)"
+    )
+    particle_diameter: float = Field(16.0, gt=0, le=1000, description="as-prepared particle diameter d [mm]")
+    particle_layers: int = Field(5, ge=1, le=100, description="number of particle layers along the axis PL [-]")
+    particles_per_layer: int = Field(1, ge=1, le=20, description="particles side by side in each layer (along x) [-]")
+    clearance: float = Field(
+        0.1, gt=0, description="initial gap between particles, and between particles and walls c [mm]"
+    )
+    side_wall_thickness: float = Field(2.0, gt=0, description="membrane side-wall thickness t0 [mm]")
+    end_wall_thickness: float = Field(4.0, gt=0, description="membrane top and bottom wall thickness t1 [mm]")
+    strain_limit_thickness: float = Field(
+        8.0, gt=0, description="strain-limit layer thickness h, bonded on the -x face over the full length [mm]"
+    )
+    cavity_width: float | None = Field(
+        None,
+        gt=0,
+        description="cavity width along x; omitted: particles_per_layer d + (particles_per_layer + 1) c [mm]",
+    )
+    cavity_length: float | None = Field(
+        None, gt=0, description="cavity length along the axis z; omitted: PL d + (PL + 1) c [mm]"
+    )
+    cavity_depth: float | None = Field(
+        None, gt=0, description="cavity depth along y, 3D only; omitted: d + 2 c [mm]"
+    )
+    friction: float = Field(
+        0.0, ge=0, le=2, description="Coulomb friction coefficient, particle-particle and particle-membrane [-]"
+    )
+    membrane: ElastomerSpec = Field(ElastomerSpec(), description="membrane elastomer (default Ecoflex 00-30)")
+    strain_limit_layer: ElastomerSpec = Field(
+        ElastomerSpec(), description="strain-limit layer elastomer (default Ecoflex 00-30)"
+    )
+    hydrogel: HydrogelParams = Field(
+        HydrogelParams(),
+        description="PNIPAM gel constants; mu0 is derived from the stress-free as-prepared state (lambda0, T0)",
+    )
+    stimulus: StimulusSpec = Field(StimulusSpec(), description="target stimulus and load path")
+    mesh: MeshSpec = Field(MeshSpec(), description="finite-element mesh")
+
+    # ---------------------------------------------------------------- derived geometry
+
+    @property
+    def cavity_width_mm(self) -> float:
+        """Cavity width along x [mm], given or derived."""
+        if self.cavity_width is not None:
+            return self.cavity_width
+        m = self.particles_per_layer
+        return m * self.particle_diameter + (m + 1) * self.clearance
+
+    @property
+    def cavity_length_mm(self) -> float:
+        """Cavity length along the axis z [mm], given or derived."""
+        if self.cavity_length is not None:
+            return self.cavity_length
+        pl = self.particle_layers
+        return pl * self.particle_diameter + (pl + 1) * self.clearance
+
+    @property
+    def cavity_depth_mm(self) -> float:
+        """Cavity depth along y [mm], given or derived (used in 3D only)."""
+        if self.cavity_depth is not None:
+            return self.cavity_depth
+        return self.particle_diameter + 2.0 * self.clearance
+
+    @property
+    def length_mm(self) -> float:
+        """Actuator length L = cavity_length + 2 t1 [mm]."""
+        return self.cavity_length_mm + 2.0 * self.end_wall_thickness
+
+    @property
+    def width_mm(self) -> float:
+        """Actuator width along x, h + 2 t0 + cavity_width [mm]."""
+        return self.strain_limit_thickness + 2.0 * self.side_wall_thickness + self.cavity_width_mm
+
+    def resolved(self) -> Design:
+        """A copy with cavity_width, cavity_length (and cavity_depth in 3D) written out explicitly."""
+        update = {"cavity_width": self.cavity_width_mm, "cavity_length": self.cavity_length_mm}
+        if self.dimension == 3:
+            update["cavity_depth"] = self.cavity_depth_mm
+        return self.model_copy(update=update)
+
+    # ---------------------------------------------------------------- consistency
+
+    @model_validator(mode="after")
+    def _check_consistency(self) -> Design:
+        for name, value in self.hydrogel.model_dump().items():
+            if not math.isfinite(value):
+                raise ValueError(f"hydrogel.{name}: must be a finite number (got {value})")
+        d, c = self.particle_diameter, self.clearance
+        if not c < d / 4.0:
+            raise ValueError(
+                f"clearance: must be < particle_diameter/4 = {_g(d / 4.0)} mm (got {_g(c)} mm)"
+            )
+        if self.cavity_depth is not None and self.dimension != 3:
+            raise ValueError(
+                f"cavity_depth: only with dimension = 3 (got cavity_depth {_g(self.cavity_depth)} mm "
+                f"with dimension {self.dimension})"
+            )
+        fits = [("cavity_width", self.particles_per_layer, self.cavity_width_mm),
+                ("cavity_length", self.particle_layers, self.cavity_length_mm)]
+        if self.dimension == 3:
+            fits.append(("cavity_depth", 1, self.cavity_depth_mm))
+        for name, count, size in fits:
+            need = count * d + (count + 1) * c
+            if need > size * (1.0 + _REL_TOL):
+                raise ValueError(
+                    f"{name}: the particles do not fit: {count} x {_g(d)} mm + {count + 1} x {_g(c)} mm "
+                    f"clearance = {_g(need)} mm > {name} {_g(size)} mm; need {name} >= {_g(need)} mm"
+                )
+        h = self.mesh.size
+        if h > d / 4.0:
+            raise ValueError(
+                f"mesh.size: must be <= particle_diameter/4 = {_g(d / 4.0)} mm so that about 12 quadratic "
+                f"edges or more go round a particle (got {_g(h)} mm)"
+            )
+        if h > self.cavity_length_mm:
+            raise ValueError(
+                f"mesh.size: must be <= cavity_length {_g(self.cavity_length_mm)} mm (got {_g(h)} mm)"
+            )
+        return self
+
+
+# -------------------------------------------------------------------- reading
+
+
+def default_design() -> Design:
+    """The default design (DESIGN.md section 6): d 16 mm, PL 5, clearance 0.1 mm, L = 88.6 mm."""
+    return Design()
+
+
+def design_from_dict(data: dict) -> Design:
+    """A validated Design from plain data (e.g. parsed TOML); raises DesignError (one line).
+
+    Types are checked strictly (TOML values are typed): an integer where a number is expected
+    is accepted, a string or a float where an integer is expected is not.
+    """
+    if not isinstance(data, dict):
+        raise DesignError(f"design: expected a table of keys, got {type(data).__name__}")
+    try:
+        return Design.model_validate(data, strict=True)
+    except ValidationError as err:
+        raise DesignError(explain_error(err, Design)) from None
+
+
+def load_design(path: str | os.PathLike) -> Design:
+    """Read a design TOML file; raises DesignError naming the file for a missing or invalid one."""
+    path = Path(path)
+    data = read_toml(path, "design", DesignError)
+    try:
+        return design_from_dict(data)
+    except DesignError as err:
+        raise DesignError(f"{path}: {err}") from None
+
+
+def _parse_value(text: str):
+    try:
+        return tomllib.loads("v = " + text)["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+
+
+def _merge(into: dict, key: list[str], value) -> None:
+    for name in key[:-1]:
+        into = into.setdefault(name, {})
+    old = into.get(key[-1])
+    if isinstance(old, dict) and isinstance(value, dict):
+        merged = dict(old)
+        for k, v in value.items():
+            _merge(merged, [k], v)
+        into[key[-1]] = merged
+    else:
+        into[key[-1]] = value
+
+
+def apply_overrides(design: Design, overrides: list[str]) -> Design:
+    """The design with each 'dotted.key=value' override applied (e.g. 'stimulus.temperature=295').
+
+    A value is read as a TOML value, else as a plain string ('stimulus.path=linear'). Overrides
+    merge into the unresolved design (derived cavity sizes follow a new particle_diameter) and the
+    result is validated as a whole; raises DesignError naming the override.
+    """
+    data = design.model_dump(exclude_none=True)
+    applied: list[tuple[str, str]] = []
+    for item in overrides:
+        if not isinstance(item, str) or "=" not in item:
+            raise DesignError(f"--set {item}: expected key=value, e.g. stimulus.temperature=295")
+        key, _, text = item.partition("=")
+        key = key.strip()
+        parts = key.split(".")
+        if not key or any(not p for p in parts):
+            raise DesignError(f"--set {item}: expected key=value with a dotted key, e.g. stimulus.temperature=295")
+        for i in range(len(parts)):
+            model = submodel(Design, parts[:i])
+            if model is None:
+                raise DesignError(f"--set {item}: {'.'.join(parts[:i])} is not a table")
+            if parts[i] not in model.model_fields:
+                raise DesignError(
+                    f"--set {item}: unknown key {key} (allowed: {', '.join(model.model_fields)})"
+                )
+        _merge(data, parts, _parse_value(text))
+        applied.append((key, item))
+    try:
+        return design_from_dict(data)
+    except DesignError as err:
+        msg = str(err)
+        blamed = [item for key, item in applied if msg.startswith(key + ":") or msg.startswith(key + ".")]
+        items = blamed or [item for _, item in applied]
+        prefix = ", ".join(f"--set {i}" for i in items)
+        raise DesignError(f"{prefix}: {msg}" if prefix else msg) from None
+
+
+# -------------------------------------------------------------------- writing
+
+_HEADER = """\
+hydrojam actuator design: PNIPAM hydrogel particles jammed in an elastomer chamber with a
+strain-limit layer (a soft bending actuator).
+Units: length mm, stress MPa, temperature K, chemical potential kT (k_B T).
+Run it with:   hydrojam run design.toml -o out
+Every key is optional (a missing key takes its default); a commented-out key is derived."""
+
+_DERIVED = {
+    "cavity_width": "cavity_width_mm",
+    "cavity_length": "cavity_length_mm",
+    "cavity_depth": "cavity_depth_mm",
+}
+
+
+def _toml(value) -> str:
+    return tomli_w.dumps({"v": value})[len("v = "):].rstrip("\n")
+
+
+_NBSP = "\0"  # keeps an interval such as "(0, inf)" on one comment line
+
+
+def _comment(text: str) -> list[str]:
+    return [f"# {line.replace(_NBSP, ' ')}" for line in textwrap.wrap(text, 96)]
+
+
+def _allowed(model: type[BaseModel], name: str) -> str:
+    info = model.model_fields[name]
+    ann = info.annotation
+    if typing.get_origin(ann) is Literal:
+        return "allowed: " + ", ".join(_toml(v) for v in typing.get_args(ann))
+    rng = field_range(model, name)
+    return f"allowed {rng.replace(' ', _NBSP)}" if rng else ""
+
+
+def _field_lines(model: BaseModel, comments: bool, owner: Design | None) -> list[str]:
+    cls = type(model)
+    lines: list[str] = []
+    for name, info in cls.model_fields.items():
+        if submodel(cls, [name]) is not None:
+            continue
+        value = getattr(model, name)
+        if comments:
+            parts = [info.description or name]
+            allowed = _allowed(cls, name)
+            if allowed:
+                parts.append(allowed)
+            if info.default is not None:
+                parts.append(f"default {_toml(info.default)}")
+            lines += _comment("; ".join(parts))
+        if value is None:
+            if comments and owner is not None and name in _DERIVED:
+                lines += [f"# {name} = {_toml(getattr(owner, _DERIVED[name]))}", ""]
+            continue
+        lines.append(f"{name} = {_toml(value)}")
+        if comments:
+            lines.append("")
+    return lines
+
+
+def design_to_toml(design: Design, comments: bool = True) -> str:
+    """The design as a TOML document; with ``comments`` every key has its description, unit,
+    allowed range and default above it, and derived (None) keys appear commented out.
+
+    Round-trips: ``design_from_dict(tomllib.loads(design_to_toml(d))) == d``.
+    """
+    lines: list[str] = []
+    if comments:
+        lines += [f"# {line}" if line else "#" for line in _HEADER.splitlines()] + [""]
+    lines += _field_lines(design, comments, design)
+    for name, info in Design.model_fields.items():
+        if submodel(Design, [name]) is None:
+            continue
+        if lines and lines[-1] != "":
+            lines.append("")
+        if comments:
+            lines += _comment(info.description or name)
+        lines.append(f"[{name}]")
+        lines += _field_lines(getattr(design, name), comments, None)
+    while lines and lines[-1] == "":
+        lines.pop()
+    return "\n".join(lines) + "\n"
+
+
+def write_design(path: str | os.PathLike, design: Design, comments: bool = True) -> None:
+    """Write the design as (commented) TOML to ``path`` atomically."""
+    write_text_atomic(path, design_to_toml(design, comments))

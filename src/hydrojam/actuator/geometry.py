@@ -1,0 +1,85 @@
+"""The actuator's geometry (DESIGN.md section 6): the chamber, walls, strain-limit layer and
+particles drawn with gmsh through :mod:`hydrojam.fem.meshing`, and meshed. Lengths in mm."""
+
+from __future__ import annotations
+
+import gmsh
+import numpy as np
+
+from hydrojam.actuator.design import Design
+from hydrojam.fem.mesh import Mesh
+from hydrojam.fem.meshing import add_groups, bounding_box, generate, gmsh_session, set_mesh_size
+
+
+def actuator_2d(cavity_width: float, cavity_length: float, side_wall: float, end_wall: float,
+                strain_limit: float, centers, radius: float, size: float, order: int = 2) -> Mesh:
+    """Plane-strain actuator (DESIGN.md section 6), x-z plane, lengths in mm.
+
+    Membrane: the rectangle [-w/2 - t0, w/2 + t0] x [-L, 0] (L = cavity_length + 2 t1) minus the
+    cavity [-w/2, w/2] x [-t1 - cavity_length, -t1]; strain-limit layer [-w/2 - t0 - h, -w/2 - t0]
+    x [-L, 0], bonded to the membrane (shared nodes) and split at its mid-line so that the
+    mid-line is a line of nodes (the centreline of the metrics); particles: separate disks of
+    ``radius`` about ``centers`` (no shared nodes).
+
+    Cell groups "membrane", "strain_limit_layer", "particle0", ...; facet groups "clamp"
+    (z = 0), "free_end" (z = -L), "cavity" (the cavity's wall) and "particle<k>_boundary".
+    """
+    w, t0, t1, h = float(cavity_width), float(side_wall), float(end_wall), float(strain_limit)
+    length = float(cavity_length) + 2 * t1
+    x_out = w / 2 + t0
+    centers = np.atleast_2d(np.asarray(centers, dtype=float))
+    tol = 1e-6 * length
+    with gmsh_session():
+        set_mesh_size(size)
+        occ = gmsh.model.occ
+        outer = occ.addRectangle(-x_out, -length, 0.0, 2 * x_out, length)
+        cavity = occ.addRectangle(-w / 2, -t1 - cavity_length, 0.0, w, cavity_length)
+        (membrane, _) = occ.cut([(2, outer)], [(2, cavity)])
+        halves = [occ.addRectangle(-x_out - h, -length, 0.0, h / 2, length),
+                  occ.addRectangle(-x_out - h / 2, -length, 0.0, h / 2, length)]
+        (frag, _) = occ.fragment(membrane, [(2, t) for t in halves])
+        particles = [occ.addDisk(c[0], c[1], 0.0, radius, radius) for c in centers]
+        occ.synchronize()
+        body = [t for d, t in frag if d == 2]
+        sll = [t for t in body if bounding_box(2, t)[1, 0] <= -x_out + tol]
+        mem = [t for t in body if t not in sll]
+        walls = gmsh.model.getBoundary([(2, t) for t in body], combined=True, oriented=False)
+        clamp, free_end, cavity_curves = [], [], []
+        for _, c in walls:
+            bb = bounding_box(1, c)
+            if abs(bb[0, 1]) < tol and abs(bb[1, 1]) < tol:
+                clamp.append(c)
+            elif abs(bb[0, 1] + length) < tol and abs(bb[1, 1] + length) < tol:
+                free_end.append(c)
+            elif bb[0, 0] >= -w / 2 - tol and bb[1, 0] <= w / 2 + tol and bb[0, 1] >= -length + t1 - tol \
+                    and bb[1, 1] <= -t1 + tol:
+                cavity_curves.append(c)
+        cells = {"membrane": mem, "strain_limit_layer": sll}
+        facets = {"clamp": clamp, "free_end": free_end, "cavity": cavity_curves}
+        for k, p in enumerate(particles):
+            cells[f"particle{k}"] = [p]
+            facets[f"particle{k}_boundary"] = [t for _, t in gmsh.model.getBoundary([(2, p)], oriented=False)]
+        add_groups(2, cells, facets)
+        return generate(2, order)
+
+
+def particle_centres(design: Design) -> np.ndarray:
+    """As-prepared particle centres (n, 2) [mm], layer by layer from the clamp, evenly spaced in
+    the cavity (the clearance as the gap when the cavity is derived from the particles)."""
+    d = design.particle_diameter
+    m, pl = design.particles_per_layer, design.particle_layers
+    w, lc = design.cavity_width_mm, design.cavity_length_mm
+    gx = (w - m * d) / (m + 1)
+    gz = (lc - pl * d) / (pl + 1)
+    xs = -w / 2 + gx + d / 2 + np.arange(m) * (d + gx)
+    zs = -design.end_wall_thickness - gz - d / 2 - np.arange(pl) * (d + gz)
+    return np.array([(x, z) for z in zs for x in xs])
+
+
+def mesh_design(design: Design) -> Mesh:
+    """The quadratic-triangle mesh of a 2D design (groups as in :func:`actuator_2d`)."""
+    return actuator_2d(
+        design.cavity_width_mm, design.cavity_length_mm, design.side_wall_thickness,
+        design.end_wall_thickness, design.strain_limit_thickness, particle_centres(design),
+        design.particle_diameter / 2, design.mesh.size, order=2,
+    )

@@ -1,0 +1,202 @@
+"""The actuator model: a :class:`~hydrojam.design.Design` turned into bodies, materials, the clamp
+and contact (DESIGN.md sections 4-6), and the measurements taken on a state (section 7).
+
+Data flow: design -> geometry and mesh (gmsh, in ``_gmsh``) -> :class:`ActuatorModel` (this
+module) -> :func:`hydrojam.simulate.simulate`. Lengths mm, stresses MPa, forces N/mm (2D, per unit
+depth).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hydrojam.fem.assembly import Block, Solid
+from hydrojam.fem.contact import Contact, default_settings
+from hydrojam.actuator.design import Design, DesignError
+from hydrojam.fem.elements import element_for_meshio_type
+from hydrojam.materials.energies import Hydrogel, Material
+from hydrojam.fem.mesh import Mesh
+from hydrojam.actuator.geometry import mesh_design
+from hydrojam.actuator.metrics import (
+    bending_angle_deg,
+    centreline_profile,
+    contacts_per_particle,
+    curling_index,
+    packing_fraction,
+    tip_displacement,
+)
+from hydrojam.fem.solver import Problem, fixed
+from hydrojam.actuator.stimulus import StimulusPath, stimulus_path
+
+DHAT_PER_CLEARANCE = 0.8  # barrier activation distance / initial clearance
+KAPPA_PER_MEMBRANE_MODULUS = 1.0  # barrier stiffness / membrane shear modulus (see build_model)
+WALL_COMPONENT = -1  # contact component of the membrane and strain-limit layer (one bonded body)
+
+#: body ids written to results (cell data ``body_id``): particles are PARTICLE_BODY + k
+MEMBRANE_BODY, STRAIN_LIMIT_BODY, PARTICLE_BODY = 0, 1, 2
+
+
+def check_supported(design: Design) -> None:
+    """Refuse, before any work, what the schema holds but the simulator does not do yet (3D)."""
+    if design.dimension != 2:
+        raise DesignError(f"dimension: only 2 (plane strain) is simulated so far; allowed: 2 (got {design.dimension})")
+
+
+@dataclass(frozen=True)
+class ActuatorModel:
+    """Everything a simulation needs, built once from a design.
+
+    ``solid`` holds three blocks (membrane, strain-limit layer, all particles) whose materials
+    :meth:`materials_at` sets for a load parameter s; ``contact`` couples the particles with each
+    other and with the membrane; the clamp holds every node of the top face.
+    """
+
+    design: Design
+    mesh: Mesh
+    solid: Solid
+    contact: Contact
+    path: StimulusPath
+    membrane: Material
+    strain_limit: Material
+    gel: Hydrogel
+    clamp_nodes: np.ndarray
+    free_end_nodes: np.ndarray
+    centreline_nodes: np.ndarray  # strain-limit layer mid-line, ordered from the clamp
+    particle_cells: list[np.ndarray]  # cell indices of each particle
+    cavity_segments: np.ndarray  # (k, 2) straight pieces of the cavity wall, node indices
+    body_id: np.ndarray  # (n_cells,) MEMBRANE_BODY, STRAIN_LIMIT_BODY, PARTICLE_BODY + k
+    components: np.ndarray  # (n_nodes,) contact component of every node
+
+    @property
+    def n_particles(self) -> int:
+        return len(self.particle_cells)
+
+    def stimulus(self, s: float) -> tuple[float, float]:
+        """(mu [k_B T], T [K]) at load parameter s."""
+        return self.path(s)
+
+    def materials_at(self, s: float) -> list[Material]:
+        """Block materials at load parameter s (the gel at the stimulus of s)."""
+        mu, T = self.path(s)
+        return [self.membrane, self.strain_limit, self.gel.at(mu, T)]
+
+    def problem(self, extra_terms: tuple = ()) -> Problem:
+        """The load-path problem: elastic energy at the stimulus of s, plus contact (plus
+        ``extra_terms``, e.g. stabilisation); clamped top."""
+        solid, contact = self.solid, self.contact
+
+        def terms(s: float):
+            return [solid.with_materials(self.materials_at(s)), contact, *extra_terms]
+
+        G = self.membrane.shear_modulus_ref
+        return Problem(self.mesh.points, terms, [fixed(self.clamp_nodes, 2)],
+                       force_scale=G * self.design.particle_diameter, length_scale=self.design.mesh.size)
+
+
+def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
+    x_mid = -design.cavity_width_mm / 2 - design.side_wall_thickness - design.strain_limit_thickness / 2
+    nodes = np.unique(mesh.cells[mesh.cell_groups["strain_limit_layer"]])
+    tol = 1e-6 * design.length_mm
+    on = nodes[np.abs(mesh.points[nodes, 0] - x_mid) < tol]
+    return on[np.argsort(-mesh.points[on, 1])]
+
+
+def build_model(design: Design) -> ActuatorModel:
+    """Mesh the design and set up bodies, materials, clamp, contact and the stimulus path."""
+    design = design.resolved()
+    check_supported(design)
+    mesh = mesh_design(design)
+    el = element_for_meshio_type(mesh.cell_type)
+    n_p = design.particle_layers * design.particles_per_layer
+    particle_cells = [mesh.cell_groups[f"particle{k}"] for k in range(n_p)]
+    gel = Hydrogel(design.hydrogel)
+    membrane = design.membrane.material()
+    strain_limit = design.strain_limit_layer.material()
+    solid = Solid(mesh.points, [
+        Block(mesh.cells[mesh.cell_groups["membrane"]], el, membrane, "membrane"),
+        Block(mesh.cells[mesh.cell_groups["strain_limit_layer"]], el, strain_limit, "strain_limit_layer"),
+        Block(mesh.cells[np.concatenate(particle_cells)], el, gel, "particles"),
+    ])
+    components = np.full(mesh.n_nodes, WALL_COMPONENT)
+    body_id = np.full(mesh.n_cells, MEMBRANE_BODY)
+    body_id[mesh.cell_groups["strain_limit_layer"]] = STRAIN_LIMIT_BODY
+    for k, cells in enumerate(particle_cells):
+        components[np.unique(mesh.cells[cells])] = k
+        body_id[cells] = PARTICLE_BODY + k
+    facets = mesh.boundary_facets()
+    # dhat: as wide as the clearance allows (the barrier must start inactive, so that the
+    # as-prepared state is stress-free). Measured on a one-particle actuator: dhat = 0.8 c took
+    # 928 Newton iterations to T = 275 K, dhat = 0.5 c 1164 and the mesh-relative default (1% of
+    # an edge, 0.01 mm) 2736: a soft membrane's Newton steps move it by tenths of a mm, far
+    # beyond a thin barrier, which then acts only after CCD has cut the step. The price is a
+    # contact gap of at most dhat (0.08 mm at the default clearance, 0.5% of a particle radius).
+    # kappa: the membrane's shear modulus. Every contact pressure in the chamber is held by the
+    # membrane's confinement, so it is of the order of the membrane's stresses, and a barrier that
+    # stiff carries it at a gap still inside dhat (measured at the end of the default design:
+    # smallest gap 0.046 mm of dhat = 0.08). Stiffer barriers only make Newton's work harder:
+    # default design (mesh 4) at 275 K, 2872 Newton iterations with kappa = 10 G_gel (116 x this),
+    # 1661 with 0.3 G_gel, 1193 with 0.1 G_gel (about this); bending angle 75.0, 73.3, 73.1 deg,
+    # inside the spread of the path dependence (docs/actuator.md).
+    kappa = KAPPA_PER_MEMBRANE_MODULUS * membrane.shear_modulus_ref
+    settings = default_settings(mesh.points, facets, membrane.shear_modulus_ref,
+                                dhat=DHAT_PER_CLEARANCE * design.clearance, kappa=kappa, friction=design.friction)
+    contact = Contact(mesh.points, facets, components, settings)
+    cav = mesh.facet_groups["cavity"]
+    segments = cav[:, [0, 2, 2, 1]].reshape(-1, 2) if cav.shape[1] == 3 else cav
+    path = stimulus_path(design.hydrogel, design.stimulus.mu, design.stimulus.temperature,
+                         design.stimulus.path, dimension=design.dimension)
+    return ActuatorModel(
+        design=design, mesh=mesh, solid=solid, contact=contact, path=path, membrane=membrane,
+        strain_limit=strain_limit, gel=gel, clamp_nodes=mesh.group_nodes("clamp"),
+        free_end_nodes=mesh.group_nodes("free_end"), centreline_nodes=_centreline(mesh, design),
+        particle_cells=particle_cells, cavity_segments=segments, body_id=body_id, components=components,
+    )
+
+
+# ------------------------------------------------------------------------------------------------
+# Measurements on a state
+
+
+def _signed_area(x: np.ndarray, segments: np.ndarray) -> float:
+    a, b = x[segments[:, 0]], x[segments[:, 1]]
+    return 0.5 * float(np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]))
+
+
+def particle_areas(model: ActuatorModel, x: np.ndarray) -> np.ndarray:
+    """Current area of each particle (n_particles,) [mm^2] (integrated det F over the reference)."""
+    per_cell = model.solid.current_volumes(x)[2]  # the gel block holds the particles' cells in order
+    bounds = np.cumsum([len(c) for c in model.particle_cells])[:-1]
+    return np.array([part.sum() for part in np.split(per_cell, bounds)])
+
+
+def measure(model: ActuatorModel, x: np.ndarray) -> dict:
+    """The metrics of DESIGN.md section 7 at positions x (n, 2) [mm].
+
+    Keys: ``bending_angle_deg`` (free-end face rotation, positive toward the strain-limit side),
+    ``tip_dx_mm``, ``tip_dz_mm`` (free-end face centroid displacement), ``curling_index`` (share
+    of the centreline's rotation in the clamp half; None while straight), ``max_curvature_per_mm``,
+    ``packing_fraction`` (particle area / cavity area), ``contacts_per_particle`` (mean
+    coordination number: particle-particle pairs count for both, particle-wall pairs once),
+    ``mean_swelling_ratio`` (particle area / as-prepared area).
+    """
+    X = model.mesh.points
+    fe, cl = model.free_end_nodes, model.centreline_nodes
+    dx, dz = tip_displacement(X[fe], x[fe])
+    profile = centreline_profile(X[cl], x[cl])
+    areas = particle_areas(model, x)
+    cavity = abs(_signed_area(x, model.cavity_segments))
+    ref_area = model.n_particles * np.pi * model.design.particle_diameter**2 / 4
+    pairs = model.contact.contact_pairs(x)
+    ci = curling_index(profile)
+    return {
+        "bending_angle_deg": bending_angle_deg(X[fe], x[fe]) + 0.0,  # + 0.0: no "-0.0" in results
+        "tip_dx_mm": float(dx) + 0.0,
+        "tip_dz_mm": float(dz) + 0.0,
+        "curling_index": None if ci is None else float(ci),
+        "max_curvature_per_mm": float(np.max(np.abs(profile.curvature))),
+        "packing_fraction": packing_fraction(float(areas.sum()), cavity),
+        "contacts_per_particle": contacts_per_particle(pairs, set(range(model.n_particles))),
+        "mean_swelling_ratio": float(areas.sum() / ref_area),
+    }

@@ -1,0 +1,83 @@
+"""The actuator's figure ``final.png`` (matplotlib, written atomically as PNG).
+
+Figures are drawn on a :class:`matplotlib.figure.Figure` without pyplot, so a notebook user's
+backend is never changed."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+from matplotlib.collections import LineCollection, PolyCollection
+from matplotlib.figure import Figure
+
+from hydrojam._io import atomic_path
+from hydrojam.actuator.fields import cell_fields
+from hydrojam.actuator.metrics import centreline_profile
+from hydrojam.actuator.model import PARTICLE_BODY
+
+
+_TRI6_SPLIT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
+
+
+def _outline_segments(mesh) -> np.ndarray:
+    """Boundary facets of a mesh as straight pieces (k, 2) of node indices."""
+    f = mesh.boundary_facets()
+    return f[:, [0, 2, 2, 1]].reshape(-1, 2) if f.shape[1] == 3 else f
+
+
+def plot_actuator(model, state, path: str | os.PathLike) -> None:
+    """The actuator at ``state`` over its undeformed outline (left) and the centreline curvature
+    profile (right). Particles coloured by swelling ratio (gel volume / dry volume); membrane
+    light grey, strain-limit layer dark grey. Lengths in mm."""
+    mesh, X, x = model.mesh, model.mesh.points, state.x
+    fields = cell_fields(model, x, state.s)
+    cells = mesh.cells
+    tris = cells[:, _TRI6_SPLIT].reshape(-1, 3) if cells.shape[1] == 6 else cells
+    rep = 4 if cells.shape[1] == 6 else 1
+    body = np.repeat(fields["body_id"], rep)
+    swell = np.repeat(fields["swelling_ratio"], rep)
+    fig = Figure(figsize=(11, 6.5))
+    ax, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.25, 1]})
+    seg = _outline_segments(mesh)
+    ax.add_collection(LineCollection(X[seg], colors="0.55", linewidths=0.7, linestyles="--"))
+    gel = body >= PARTICLE_BODY
+    polys = PolyCollection(x[tris[~gel]], facecolors=np.where(body[~gel, None] == 0, [[0.82] * 3], [[0.45] * 3]),
+                           edgecolors="face", linewidths=0.2)
+    ax.add_collection(polys)
+    lo, hi = float(swell[gel].min()), float(swell[gel].max())
+    if hi - lo < 1e-3 * hi:  # uniform (e.g. as prepared): a readable range around it
+        lo, hi = 0.95 * lo, 1.05 * hi
+    pc = PolyCollection(x[tris[gel]], array=swell[gel], cmap="viridis", edgecolors="face", linewidths=0.2)
+    pc.set_clim(lo, hi)
+    ax.add_collection(pc)
+    ax.add_collection(LineCollection(x[seg], colors="k", linewidths=0.5))
+    allp = np.vstack([X, x])
+    pad = 0.05 * np.ptp(allp, axis=0).max()
+    ax.set_xlim(allp[:, 0].min() - pad, allp[:, 0].max() + pad)
+    ax.set_ylim(allp[:, 1].min() - pad, allp[:, 1].max() + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [mm]  (strain-limit layer on the -x side)")
+    ax.set_ylabel("z [mm]")
+    fig.colorbar(pc, ax=ax, shrink=0.8, label="particle swelling ratio J (volume / dry volume)")
+    m = state.metrics
+    ax.set_title(f"T = {state.T:.1f} K, mu = {state.mu:.3g} kT, s = {state.s:.3g}\n"
+                 f"bending angle {m['bending_angle_deg']:.1f} deg, tip dx {m['tip_dx_mm']:.1f} mm, "
+                 f"dz {m['tip_dz_mm']:.1f} mm", fontsize=10)
+    cl = model.centreline_nodes
+    prof = centreline_profile(X[cl], x[cl])
+    ax2.plot(prof.reference_arc_length, prof.curvature * 1e3, "-", color="C0")
+    ax2.axhline(0.0, color="0.6", lw=0.7)
+    k_max = float(np.max(np.abs(prof.curvature))) * 1e3
+    if k_max < 1e-6:  # straight: no scale to show round-off at
+        ax2.set_ylim(-1.0, 1.0)
+    ax2.set_xlabel("arc length from the clamp, as prepared [mm]")
+    ax2.set_ylabel("centreline curvature [1/m]  (> 0: toward the strain-limit layer)")
+    ci = m.get("curling_index")
+    ax2.set_title("strain-limit layer mid-line" + ("" if ci is None else f", curling index {ci:.2f}"), fontsize=10)
+    ax3 = ax2.twinx()
+    ax3.plot(prof.reference_arc_length, np.degrees(prof.rotation), "--", color="C1")
+    ax3.set_ylabel("rotation [deg] (dashed)", color="C1")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")

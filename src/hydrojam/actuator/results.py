@@ -1,0 +1,164 @@
+"""Results on disk: every file written atomically, as the run goes (DESIGN.md section 9).
+
+Layout of an output folder ``OUT``::
+
+    design.toml       the resolved design (every field explicit)
+    history.csv       metrics at every accepted load step
+    steps/step_NNNN.vtu  the state of every accepted step (quadratic triangles)
+    results.pvd       ParaView's index of the steps, a time series in the load parameter s
+    centreline.csv    final centreline profile: arc length, rotation, curvature
+    metrics.json      final metrics, convergence, wall time, Newton iterations
+    final.png         deformed actuator over the undeformed outline
+
+VTU fields: point data ``displacement`` [mm]; cell data ``body_id`` (0 membrane, 1 strain-limit
+layer, 2 + k particle k), ``swelling_ratio`` (gel volume over dry-network volume, J = lambda0^3
+det F; 1 in the elastomers, which do not swell), ``cauchy_stress`` [MPa] (3 x 3, plane strain:
+the out-of-plane component included) and ``von_mises_stress`` [MPa], cell averages over
+quadrature points. 2D results are written in the x-z plane of ParaView (y = 0), so the axes mean
+what they mean in hydrojam; view them along -y.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import meshio
+import numpy as np
+
+from hydrojam._io import atomic_path, write_text_atomic
+from hydrojam.actuator.design import write_design
+from hydrojam.actuator.fields import cell_fields
+from hydrojam.actuator.model import ActuatorModel
+from hydrojam.actuator.plots import plot_actuator
+from hydrojam.actuator.simulate import SimulationResult, StepState
+
+HISTORY_COLUMNS = [
+    "step", "s", "mu_kT", "temperature_K", "bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index",
+    "max_curvature_per_mm", "packing_fraction", "contacts_per_particle", "mean_swelling_ratio",
+    "newton_iterations", "wall_time_s",
+]
+
+
+def _json_safe(v):
+    if isinstance(v, dict):
+        return {k: _json_safe(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_json_safe(x) for x in v]
+    if isinstance(v, (np.floating, float)):
+        return float(v) if math.isfinite(v) else None
+    if isinstance(v, np.integer):
+        return int(v)
+    return v
+
+
+def _xyz(p2: np.ndarray) -> np.ndarray:
+    return np.column_stack([p2[:, 0], np.zeros(len(p2)), p2[:, 1]])
+
+
+def write_vtu(path: Path, model: ActuatorModel, state: StepState) -> None:
+    """One state as a VTU file (atomic): reference points, displacement and the cell fields."""
+    fields = cell_fields(model, state.x, state.s)
+    mesh = meshio.Mesh(
+        _xyz(model.mesh.points), [(model.mesh.cell_type, model.mesh.cells)],
+        point_data={"displacement": _xyz(state.x - model.mesh.points)},
+        cell_data={k: [v.reshape(len(v), -1) if v.ndim == 3 else v] for k, v in fields.items()},
+    )
+    with atomic_path(path) as tmp:
+        meshio.write(tmp, mesh, file_format="vtu")
+
+
+def pvd_text(entries: list[tuple[float, str]]) -> str:
+    """A ParaView collection (.pvd) of (time, relative file) entries."""
+    lines = ['<?xml version="1.0"?>',
+             '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">', "  <Collection>"]
+    lines += [f'    <DataSet timestep="{t:.10g}" group="" part="0" file={quoteattr(f)}/>' for t, f in entries]
+    lines += ["  </Collection>", "</VTKFile>", ""]
+    return "\n".join(lines)
+
+
+def history_row(state: StepState) -> dict:
+    """One row of history.csv: the step's load parameter, stimulus, metrics and cost."""
+    m = state.metrics
+    row = {"step": state.index, "s": state.s, "mu_kT": state.mu, "temperature_K": state.T,
+           "newton_iterations": state.iterations, "wall_time_s": state.wall_time_s}
+    row.update({k: m.get(k) for k in HISTORY_COLUMNS if k in m})
+    safe = {k: _json_safe(row.get(k)) for k in HISTORY_COLUMNS}
+    return {k: ("" if v is None else v) for k, v in safe.items()}
+
+
+def _csv(rows: list[dict], columns: list[str]) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
+    w.writeheader()
+    w.writerows(rows)
+    return buf.getvalue()
+
+
+class ResultWriter:
+    """Writes a run's results into ``out_dir`` as the run goes; every file atomically.
+
+    :meth:`start` writes the resolved design and clears step files of an earlier run; call
+    :meth:`step` for every accepted state and :meth:`finish` at the end.
+    """
+
+    def __init__(self, out_dir: str | Path, model: ActuatorModel, vtu: bool = True):
+        self.out = Path(out_dir)
+        self.model = model
+        self.vtu = vtu
+        self.rows: list[dict] = []
+        self.entries: list[tuple[float, str]] = []
+
+    def start(self) -> None:
+        self.rows.clear()
+        self.entries.clear()
+        self.out.mkdir(parents=True, exist_ok=True)
+        write_design(self.out / "design.toml", self.model.design)
+        steps = self.out / "steps"
+        if steps.is_dir():
+            for old in steps.glob("step_*.vtu"):
+                old.unlink()
+        for name in ("metrics.json", "final.png", "centreline.csv", "results.pvd", "history.csv"):
+            (self.out / name).unlink(missing_ok=True)
+
+    def step(self, state: StepState) -> None:
+        """Write one accepted state; a state with the index of the last one replaces it (the
+        final state once the stabilisation is released)."""
+        if self.rows and self.rows[-1]["step"] == state.index:
+            self.rows.pop()
+            if self.entries:
+                self.entries.pop()
+        self.rows.append(history_row(state))
+        write_text_atomic(self.out / "history.csv", _csv(self.rows, HISTORY_COLUMNS))
+        if self.vtu:
+            rel = f"steps/step_{state.index:04d}.vtu"
+            write_vtu(self.out / rel, self.model, state)
+            self.entries.append((state.s, rel))
+            write_text_atomic(self.out / "results.pvd", pvd_text(self.entries))
+
+    def finish(self, result: SimulationResult, plot: bool = True) -> dict:
+        """Write centreline.csv, metrics.json and final.png; returns the metrics written."""
+        from hydrojam.actuator.metrics import centreline_profile
+
+        model, final = self.model, result.final
+        cl = model.centreline_nodes
+        prof = centreline_profile(model.mesh.points[cl], final.x[cl])
+        rows = [{"reference_arc_length_mm": a, "arc_length_mm": b, "rotation_deg": math.degrees(r),
+                 "curvature_per_mm": k}
+                for a, b, r, k in zip(prof.reference_arc_length, prof.arc_length, prof.rotation, prof.curvature)]
+        write_text_atomic(self.out / "centreline.csv",
+                          _csv(rows, ["reference_arc_length_mm", "arc_length_mm", "rotation_deg", "curvature_per_mm"]))
+        metrics = _json_safe(result.metrics)
+        metrics["timings_s"] = _json_safe(result.timings)
+        if plot:
+
+            plot_actuator(model, final, self.out / "final.png")
+        write_text_atomic(self.out / "metrics.json", json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+        return metrics
+
+
+__all__ = ["ResultWriter", "write_vtu", "pvd_text", "history_row", "HISTORY_COLUMNS"]

@@ -1,0 +1,257 @@
+"""Simulate an actuator along its stimulus path: the load-path solver on the model's energy terms,
+with the metrics measured at every accepted step (DESIGN.md sections 3, 7, 8).
+
+:func:`simulate` returns a :class:`SimulationResult`: the accepted states, their metrics, whether
+s = 1 was reached (if not, why, with the last converged state kept) and where the time went.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hydrojam.fem.linsolve import LinearSolver
+from hydrojam.actuator.model import ActuatorModel, measure
+from hydrojam.fem.solver import NewtonOptions, PathOptions, minimize, solve_path
+from hydrojam.fem.terms import ViscousStabilization, lumped_volumes
+
+#: viscous stabilisation c = STABILIZATION x G_membrane / d [N/mm^3] (docs/actuator.md)
+STABILIZATION = 0.01
+
+#: load-path settings for actuators: many contacts change during a step, so a step may take
+#: many Newton iterations; a long attempt is cheaper than halving the step and starting over.
+#: A step of up to 30 iterations counts as easy (the next one grows): with the generic 6 the
+#: increment never grew again after one halving (19 layers: 0.003 for hundreds of steps).
+ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=30,
+                            newton=NewtonOptions(max_iter=200))
+
+
+@dataclass(frozen=True)
+class StepState:
+    """One accepted equilibrium: load parameter s, stimulus (mu [k_B T], T [K]), positions
+    x (n, 2) [mm], metrics (see :func:`hydrojam.model.measure`), Newton iterations of the step
+    and the wall time since the start [s]."""
+
+    index: int
+    s: float
+    mu: float
+    T: float
+    x: np.ndarray
+    metrics: dict
+    iterations: int
+    wall_time_s: float
+
+
+@dataclass
+class _Clock:
+    seconds: float = 0.0
+    calls: int = 0
+
+
+class _Timed:
+    """An energy term that adds the time spent in it to a clock (for the time shares)."""
+
+    def __init__(self, term, clock: _Clock):
+        self._term, self._clock = term, clock
+
+    def _timed(self, name, *args, **kw):
+        t0 = time.perf_counter()
+        try:
+            return getattr(self._term, name)(*args, **kw)
+        finally:
+            self._clock.seconds += time.perf_counter() - t0
+            self._clock.calls += 1
+
+    def energy(self, x):
+        return self._timed("energy", x)
+
+    def gradient(self, x):
+        return self._timed("gradient", x)
+
+    def hessian(self, x, project=False):
+        return self._timed("hessian", x, project)
+
+    def max_step(self, x, dx):
+        return self._timed("max_step", x, dx)
+
+    def __getattr__(self, name):
+        return getattr(self._term, name)
+
+
+@dataclass
+class SimulationResult:
+    """Outcome of :func:`simulate`.
+
+    ``states``: every accepted step from s = 0; ``converged``: s = 1 reached; ``message``: why
+    not, otherwise "converged"; ``timings``: seconds in elastic terms (``elastic``), contact
+    (``contact``), linear solves (``linear_solve``) and in total (``total``).
+    """
+
+    model: ActuatorModel
+    states: list[StepState]
+    converged: bool
+    message: str
+    wall_time_s: float
+    newton_iterations: int
+    rejected_steps: int
+    timings: dict = field(default_factory=dict)
+    stabilization: dict = field(default_factory=dict)
+
+    @property
+    def final(self) -> StepState:
+        """The last converged state."""
+        return self.states[-1]
+
+    @property
+    def metrics(self) -> dict:
+        """Final metrics plus run information; no NaN (undefined values are None)."""
+        out = {k: _finite_or_none(v) for k, v in self.final.metrics.items()}
+        out.update(
+            converged=self.converged,
+            message=self.message,
+            s_reached=self.final.s,
+            temperature_K=self.final.T,
+            mu_kT=self.final.mu,
+            load_steps=len(self.states) - 1,
+            newton_iterations=self.newton_iterations,
+            rejected_steps=self.rejected_steps,
+            wall_time_s=self.wall_time_s,
+            stabilization_energy_ratio=self.stabilization.get("max_energy_ratio", 0.0),
+            stabilization_released=self.stabilization.get("released", True),
+        )
+        return out
+
+
+def _finite_or_none(v):
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+def simulate(
+    model: ActuatorModel,
+    options: PathOptions = ACTUATOR_PATH,
+    on_step: Callable[[StepState], None] | None = None,
+    on_progress: Callable[[float], None] | None = None,
+    stabilization: float = STABILIZATION,
+) -> SimulationResult:
+    """Follow the stimulus from the as-prepared state (s = 0) to the target (s = 1).
+
+    ``on_step(state)`` runs after every accepted step (including s = 0), e.g. to write results
+    as they come; ``on_progress(s)`` after every attempt (a progress bar). Never raises on
+    non-convergence: the result says so and keeps the last converged state.
+
+    ``stabilization``: viscous damping c = stabilization x G_membrane / d [N/mm^3] of every
+    node's motion within a load step (:class:`hydrojam.terms.ViscousStabilization`), released at
+    s = 1 so that the final state is an equilibrium without it (0: none). The final state
+    replaces the last stabilised one in ``states`` (same index, passed to ``on_step`` again).
+    """
+    t_start = time.perf_counter()
+    elastic, contact = _Clock(), _Clock()
+    stab = None
+    if stabilization > 0:
+        mesh = model.mesh
+        w = lumped_volumes(mesh.points, mesh.cells, mesh.cell_volumes())
+        c = stabilization * model.membrane.shear_modulus_ref / model.design.particle_diameter
+        stab = ViscousStabilization(w, c, mesh.dim)
+    base = model.problem(() if stab is None else (stab,))
+    timed_contact = _Timed(model.contact, contact)
+
+    def terms(s: float):
+        solid, _, *rest = base.terms(s)
+        return [_Timed(solid, elastic), timed_contact, *rest]
+
+    problem = dataclasses.replace(base, terms=terms)
+    states: list[StepState] = []
+
+    def record(s: float, x: np.ndarray, iterations: int) -> None:
+        mu, T = model.stimulus(s)
+        st = StepState(len(states), float(s), float(mu), float(T), np.array(x, dtype=float),
+                       measure(model, x), int(iterations), time.perf_counter() - t_start)
+        states.append(st)
+        if on_step is not None:
+            on_step(st)
+
+    record(0.0, model.mesh.points, 0)
+    ratio = [0.0]
+
+    def callback(s, x, rec):
+        if stab is not None:
+            e_el = sum(model.solid.with_materials(model.materials_at(s)).block_energies(x)[:2])
+            if e_el > 0:
+                ratio[0] = max(ratio[0], stab.energy(x) / e_el)
+        record(s, x, rec.iterations)
+
+    def attempt(s, ds, res):
+        if on_progress is not None:
+            on_progress(float(s - ds) if not res.converged else float(s))
+
+    res = solve_path(problem, options, callback=callback, on_attempt=attempt)
+    if not np.all(np.isfinite(res.x)):  # pragma: no cover - the solver never accepts such a state
+        raise RuntimeError("the solver returned non-finite positions")
+    released = stab is None
+    newton_iterations = res.newton_iterations
+    release_seconds = 0.0
+    if stab is not None and res.converged:
+        t_release = time.perf_counter()
+        x, its, released = _release(problem, stab, res.x, options, terms, res.timings)
+        newton_iterations += its
+        release_seconds = time.perf_counter() - t_release
+        states.pop()
+        record(1.0, x, its)
+    wall = time.perf_counter() - t_start
+    timings = {
+        "total": wall,
+        "elastic": elastic.seconds,
+        "contact": contact.seconds,
+        "linear_solve": res.timings.linear_solve,
+        "release": release_seconds,
+        "newton_iterations": res.timings.iterations,
+    }
+    message = res.message
+    if not released:
+        message += ("; the stabilisation could not be fully released at s = 1: the final state keeps "
+                    "a viscous force above the tolerance")
+    stabilization_info = {"damping_N_per_mm3": 0.0 if stab is None else stab.damping,
+                          "max_energy_ratio": ratio[0], "released": released}
+    return SimulationResult(model, states, res.converged, message, wall, newton_iterations,
+                            res.rejected_steps, timings, stabilization_info)
+
+
+def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80):
+    """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
+    on the last state, again and again, the damping lowered 10x after every easy round (<= 20
+    Newton iterations) and raised 10x after a failed one. The viscous force left at the end of a
+    round is exactly the residual of the physics alone, so the state is an equilibrium once that
+    force is below the solver's tolerance (rtol x the forces in play). Returns (x, Newton
+    iterations, released): x the last converged round's state, released False if the rounds ran
+    out (or the damping had to exceed 1000x) first."""
+    free = problem.free_mask()
+    rtol = options.newton.rtol
+    solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: PARDISO's set-up costs 0.4 s
+    its, scale = 0, stab.scale
+    for _ in range(max_rounds):
+        stab.scale = scale
+        stab.begin_step(x)
+        ts = terms(1.0)
+        res = minimize(ts, x, free, problem.force_scale, options.newton, solver)
+        its += res.iterations
+        timings.add(res.timings)
+        if not res.converged:
+            if scale >= 1e3:
+                break
+            scale *= 10.0
+            continue
+        x = res.x
+        viscous = float(np.linalg.norm(stab.gradient(x)[free]))
+        in_play = float(np.linalg.norm(ts[0].force_flux(x)[free]))
+        if viscous <= max(rtol * in_play, 1e-10 * problem.force_scale):
+            return x, its, True
+        if res.iterations <= 20:
+            scale = max(scale / 10.0, 1e-8)
+    return x, its, False

@@ -1,0 +1,351 @@
+"""Hyperelastic energy densities: the PNIPAM hydrogel and the elastomers (DESIGN.md sections 3-4).
+
+A material maps deformation gradients ``F`` of shape ``(..., d, d)`` (d = 2: plane strain, d = 3)
+to the stored energy per reference volume ``W`` [MPa = mJ/mm^3], the first Piola-Kirchhoff stress
+``P = dW/dF`` [MPa] and the tangent ``A = dP/dF`` [MPa], shape ``(..., d, d, d, d)`` indexed
+``A[i, J, k, L] = d P_iJ / d F_kL``. Plane strain means ``F_3D = diag(F, 1)``.
+
+Inadmissible states (``det F <= 0``; a gel holding less than zero water, ``J_dry <= 1``) have
+``W = +inf`` with ``P`` and ``A`` set to zero there: a solver rejects them through the energy and
+never sees a NaN.
+
+All materials here are isotropic functions of two invariants, ``I1 = tr(C)`` and ``J = det F`` of
+a possibly pre-stretched gradient ``c^(1/2) F`` (``c = lambda0^2`` for the gel, whose energy is
+defined per dry volume, ``c = 1`` otherwise), so one kernel differentiates them all.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+KT_OVER_NU_MPA = 40.0
+"""Stress unit of the gel model, k_B T / nu [MPa] (paper: 4e7 Pa)."""
+
+# Cai & Suo (2011) fit of chi(T, J) for PNIPAM; the paper rounds B0 to 0.0449.
+A0_DEFAULT = -12.947
+B0_DEFAULT = 0.04496
+A1_DEFAULT = 17.92
+B1_DEFAULT = -0.0569
+
+
+@dataclass(frozen=True)
+class MaterialResponse:
+    """Energy density W [MPa], stress P [MPa] and tangent A = dP/dF [MPa] at many points."""
+
+    energy: np.ndarray
+    stress: np.ndarray
+    tangent: np.ndarray | None
+
+
+@runtime_checkable
+class Material(Protocol):
+    """What the finite-element layer needs from a material."""
+
+    @property
+    def shear_modulus_ref(self) -> float:
+        """Small-strain shear modulus about the reference configuration [MPa] (for scales)."""
+
+    def energy(self, F: np.ndarray) -> np.ndarray:
+        """W(F) per reference volume [MPa]; +inf where inadmissible."""
+
+    def evaluate(self, F: np.ndarray, tangent: bool = True) -> MaterialResponse:
+        """W, P and (optionally) dP/dF at every F."""
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+
+# --------------------------------------------------------------------------------------------
+# The shared kernel
+
+
+def _det_inv(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """det F and F^-1 for stacks of 2x2 or 3x3 matrices (closed form: faster than LAPACK here)."""
+    d = F.shape[-1]
+    if d == 2:
+        a, b, c, e = F[..., 0, 0], F[..., 0, 1], F[..., 1, 0], F[..., 1, 1]
+        det = a * e - b * c
+        cof = np.stack([np.stack([e, -c], -1), np.stack([-b, a], -1)], -2)  # cofactor matrix
+    elif d == 3:
+        c0 = np.cross(F[..., 1, :], F[..., 2, :])
+        c1 = np.cross(F[..., 2, :], F[..., 0, :])
+        c2 = np.cross(F[..., 0, :], F[..., 1, :])
+        cof = np.stack([c0, c1, c2], -2)  # rows of the cofactor matrix
+        det = np.einsum("...j,...j->...", F[..., 0, :], c0)
+    else:
+        raise ValueError(f"deformation gradients must be 2x2 or 3x3, got {d}x{d}")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = np.swapaxes(cof, -1, -2) / det[..., None, None]
+    return det, inv
+
+
+class _InvariantMaterial:
+    """Mixin: W(F) = scale * psi(I1, J) with I1 = c (|F|^2 + 3 - d), J = c^(3/2) det F.
+
+    Subclasses provide ``_psi(I1, J)`` returning psi and its first and second partial derivatives
+    (psi, psi_1, psi_J, psi_11, psi_1J, psi_JJ), ``_prestretch_sq`` (c), ``_scale`` and
+    ``_admissible(J)``.
+    """
+
+    _prestretch_sq: float = 1.0
+    _scale: float = 1.0
+    _energy_offset: float = 0.0
+
+    def _admissible(self, J: np.ndarray) -> np.ndarray:
+        return J > 0.0
+
+    def _psi(self, I1, J, order: int):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _invariants(self, F: np.ndarray):
+        F = np.asarray(F, dtype=float)
+        d = F.shape[-1]
+        c = self._prestretch_sq
+        detF, Finv = _det_inv(F)
+        I1 = c * (np.einsum("...ij,...ij->...", F, F) + (3 - d))
+        J = c**1.5 * detF
+        ok = (detF > 0.0) & self._admissible(J)
+        return F, d, c, Finv, I1, J, ok
+
+    def energy(self, F: np.ndarray) -> np.ndarray:
+        """Stored energy per reference volume W [MPa]; +inf where inadmissible."""
+        F, _, _, _, I1, J, ok = self._invariants(F)
+        Js = np.where(ok, J, 2.0)
+        psi = self._psi(I1, Js, 0)[0]
+        return np.where(ok, self._scale * psi - self._energy_offset, np.inf)
+
+    def evaluate(self, F: np.ndarray, tangent: bool = True) -> MaterialResponse:
+        """W [MPa], P = dW/dF [MPa] and A = dP/dF [MPa] (A[..., i, J, k, L] = dP_iJ/dF_kL)."""
+        F, d, c, Finv, I1, J, ok = self._invariants(F)
+        Js = np.where(ok, J, 2.0)
+        psi, p1, pJ, p11, p1J, pJJ = self._psi(I1, Js, 2 if tangent else 1)
+        s = self._scale
+        G = np.swapaxes(np.where(ok[..., None, None], Finv, 0.0), -1, -2)  # F^-T
+        dI1 = 2.0 * c * F
+        dJ = Js[..., None, None] * G
+        W = np.where(ok, s * psi - self._energy_offset, np.inf)
+        P = s * (p1[..., None, None] * dI1 + pJ[..., None, None] * dJ)
+        P = np.where(ok[..., None, None], P, 0.0)
+        A = None
+        if tangent:
+            eye = np.eye(d)
+            A = (
+                p11[..., None, None, None, None] * np.einsum("...ij,...kl->...ijkl", dI1, dI1)
+                + p1J[..., None, None, None, None]
+                * (np.einsum("...ij,...kl->...ijkl", dI1, dJ) + np.einsum("...ij,...kl->...ijkl", dJ, dI1))
+                + pJJ[..., None, None, None, None] * np.einsum("...ij,...kl->...ijkl", dJ, dJ)
+                + (2.0 * c * p1)[..., None, None, None, None] * np.einsum("ik,jl->ijkl", eye, eye)
+                + (pJ * Js)[..., None, None, None, None]
+                * (np.einsum("...ij,...kl->...ijkl", G, G) - np.einsum("...il,...kj->...ijkl", G, G))
+            )
+            A = np.where(ok[..., None, None, None, None], s * A, 0.0)
+        return MaterialResponse(W, P, A)
+
+
+# --------------------------------------------------------------------------------------------
+# Elastomers
+
+
+def _yeoh_psi(I1, J, coeffs, bulk, order):
+    """Abaqus-form Yeoh: sum_i C_i0 (I1bar - 3)^i + K/2 (J - 1)^2, I1bar = J^(-2/3) I1."""
+    a = J ** (-2.0 / 3.0)
+    Ib = a * I1
+    x = Ib - 3.0
+    U = sum(C * x ** (i + 1) for i, C in enumerate(coeffs))
+    psi = U + 0.5 * bulk * (J - 1.0) ** 2
+    if order == 0:
+        return (psi,)
+    U1 = sum((i + 1) * C * x**i for i, C in enumerate(coeffs))
+    U2 = sum((i + 1) * i * C * x ** (i - 1) for i, C in enumerate(coeffs) if i > 0)
+    U2 = U2 + 0.0 * x
+    dIb_dJ = -2.0 / 3.0 * Ib / J
+    p1 = U1 * a
+    pJ = U1 * dIb_dJ + bulk * (J - 1.0)
+    if order == 1:
+        z = 0.0 * x
+        return psi, p1, pJ, z, z, z
+    p11 = U2 * a * a
+    p1J = U2 * a * dIb_dJ + U1 * (-2.0 / 3.0) * a / J
+    pJJ = U2 * dIb_dJ**2 + U1 * (10.0 / 9.0) * Ib / J**2 + bulk
+    return psi, p1, pJ, p11, p1J, pJJ
+
+
+def bulk_modulus(shear_modulus: float, poisson_ratio: float) -> float:
+    """Small-strain bulk modulus K = 2G(1 + nu) / (3(1 - 2nu)) [MPa]."""
+    return 2.0 * shear_modulus * (1.0 + poisson_ratio) / (3.0 * (1.0 - 2.0 * poisson_ratio))
+
+
+class NeoHookean(_Frozen, _InvariantMaterial):
+    """Compressible neo-Hookean solid (Abaqus form): W = G/2 (I1bar - 3) + K/2 (J - 1)^2.
+
+    Defaults: Ecoflex 00-30, G = 0.023 MPa, Poisson's ratio 0.45 (K derived).
+    """
+
+    shear_modulus: float = Field(0.023, gt=0, description="small-strain shear modulus G [MPa]")
+    poisson_ratio: float = Field(0.45, ge=0, lt=0.5, description="small-strain Poisson's ratio [-]")
+
+    @property
+    def shear_modulus_ref(self) -> float:
+        return self.shear_modulus
+
+    @property
+    def bulk_modulus(self) -> float:
+        """K [MPa], derived from G and the Poisson's ratio."""
+        return bulk_modulus(self.shear_modulus, self.poisson_ratio)
+
+    def _psi(self, I1, J, order):
+        return _yeoh_psi(I1, J, (0.5 * self.shear_modulus,), self.bulk_modulus, order)
+
+
+class Yeoh(_Frozen, _InvariantMaterial):
+    """Compressible Yeoh solid (Abaqus form): W = sum_i C_i0 (I1bar - 3)^i + K/2 (J - 1)^2.
+
+    The initial shear modulus is 2 C10; K follows from it and the Poisson's ratio. Defaults
+    reduce to the Ecoflex 00-30 neo-Hookean (C10 = G/2); give C20, C30 from a fit for
+    large-strain stiffening.
+    """
+
+    c10: float = Field(0.0115, gt=0, description="C10 [MPa]")
+    c20: float = Field(0.0, description="C20 [MPa]")
+    c30: float = Field(0.0, description="C30 [MPa]")
+    poisson_ratio: float = Field(0.45, ge=0, lt=0.5, description="small-strain Poisson's ratio [-]")
+
+    @property
+    def shear_modulus_ref(self) -> float:
+        return 2.0 * self.c10
+
+    @property
+    def bulk_modulus(self) -> float:
+        """K [MPa], derived from 2 C10 and the Poisson's ratio."""
+        return bulk_modulus(2.0 * self.c10, self.poisson_ratio)
+
+    def _psi(self, I1, J, order):
+        return _yeoh_psi(I1, J, (self.c10, self.c20, self.c30), self.bulk_modulus, order)
+
+
+# --------------------------------------------------------------------------------------------
+# PNIPAM hydrogel
+
+
+class HydrogelParams(_Frozen):
+    """Constants of the temperature-sensitive gel (DESIGN.md section 3); the stimulus is separate.
+
+    Symbols: n = N nu (``n``), lambda0 (``lambda0``), T0 (``T0``), chi(T, J) = A0 + B0 T +
+    (A1 + B1 T)/J.
+    """
+
+    n: float = Field(0.01, gt=0, le=1.0, description="N nu: polymer chains per solvent-molecule volume [-]")
+    lambda0: float = Field(1.5, gt=1.0, le=10.0, description="as-prepared free-swelling stretch lambda0 [-]")
+    T0: float = Field(300.0, ge=273.15, le=373.15, description="temperature of the as-prepared state T0 [K]")
+    A0: float = Field(A0_DEFAULT, description="chi coefficient A0 [-]")
+    B0: float = Field(B0_DEFAULT, description="chi coefficient B0 [1/K]")
+    A1: float = Field(A1_DEFAULT, description="chi coefficient A1 [-]")
+    B1: float = Field(B1_DEFAULT, description="chi coefficient B1 [1/K]")
+    kT_over_nu: float = Field(KT_OVER_NU_MPA, gt=0, description="stress unit k_B T / nu [MPa]")
+
+    def chi_coefficients(self, T: float) -> tuple[float, float]:
+        """(chi0, chi1) at temperature T [K], chi(T, J) = chi0 + chi1 / J."""
+        return self.A0 + self.B0 * T, self.A1 + self.B1 * T
+
+    @property
+    def mu0(self) -> float:
+        """Chemical potential mu0 [k_B T] at which the as-prepared state (lambda0, T0) is stress-free."""
+        return reference_chemical_potential(self)
+
+
+def _mixing_g(chi0, chi1, mu, iJ, l1):
+    """g from 1/J (``iJ``) and ln(1 - 1/J) (``l1``): the one formula of the mixing term."""
+    return l1 + iJ + (chi0 - chi1) * iJ**2 + 2.0 * chi1 * iJ**3 - mu
+
+
+def mixing_g(params: HydrogelParams, J, mu: float, T: float):
+    """g(J) = ln(1 - 1/J) + 1/J + (chi0 - chi1)/J^2 + 2 chi1/J^3 - mu [k_B T / nu] (DESIGN.md
+    section 3): dw/dJ without the network term, J the volume ratio to the dry network."""
+    chi0, chi1 = params.chi_coefficients(T)
+    iJ = 1.0 / np.asarray(J, dtype=float)
+    return _mixing_g(chi0, chi1, mu, iJ, np.log1p(-iJ))
+
+
+def nominal_stresses(params: HydrogelParams, stretches, mu: float, T: float) -> np.ndarray:
+    """Principal nominal stresses s_i = n (l_i - 1/l_i) + (J/l_i) g(J) [k_B T / nu], dry reference."""
+    lam = np.asarray(stretches, dtype=float)
+    J = np.prod(lam, axis=-1, keepdims=True)
+    return params.n * (lam - 1.0 / lam) + (J / lam) * mixing_g(params, J, mu, T)
+
+
+def reference_chemical_potential(params: HydrogelParams) -> float:
+    """mu0 [k_B T]: the chemical potential at which free swelling to lambda0 at T0 is stress-free."""
+    lam = params.lambda0
+    return float(nominal_stresses(params, [lam, lam, lam], 0.0, params.T0)[0] / lam**2)
+
+
+def gel_psi(params: HydrogelParams, mu: float, T: float, I1, J, order: int = 2):
+    """Normalised gel free energy per dry volume w(I1, J; mu, T) [k_B T / nu] and its derivatives.
+
+    w = n/2 (I1 - 3 - 2 ln J) + (J - 1) ln(1 - 1/J) + chi(T, J)(1 - 1/J) - mu (J - 1).
+    Returns (w, w_1, w_J, w_11, w_1J, w_JJ) up to ``order``; needs J > 1.
+    """
+    n = params.n
+    chi0, chi1 = params.chi_coefficients(T)
+    J = np.asarray(J, dtype=float)
+    lnJ = np.log(J)
+    l1 = np.log1p(-1.0 / J)
+    iJ = 1.0 / J
+    w = 0.5 * n * (I1 - 3.0 - 2.0 * lnJ) + (J - 1.0) * l1 + (chi0 + chi1 * iJ) * (1.0 - iJ) - mu * (J - 1.0)
+    if order == 0:
+        return (w,)
+    g = _mixing_g(chi0, chi1, mu, iJ, l1)
+    w1 = np.full_like(J, 0.5 * n)
+    wJ = -n * iJ + g
+    z = np.zeros_like(J)
+    if order == 1:
+        return w, w1, wJ, z, z, z
+    dg = iJ**2 / (J - 1.0) - 2.0 * (chi0 - chi1) * iJ**3 - 6.0 * chi1 * iJ**4
+    wJJ = n * iJ**2 + dg
+    return w, w1, wJ, z, z, wJJ
+
+
+class Hydrogel(_InvariantMaterial):
+    """PNIPAM gel in contact with solvent at chemical potential mu [k_B T] and temperature T [K].
+
+    The reference configuration is the as-prepared state (free swelling stretch lambda0 of the
+    dry network), so W(F) = (k_B T / nu) [w(lambda0 F) - w(lambda0 I)] / lambda0^3 per as-prepared
+    volume: the constant shift makes the as-prepared state the zero of energy at every stimulus
+    (it does not change any stress). Build one per stimulus with :meth:`at`.
+    """
+
+    def __init__(self, params: HydrogelParams | None = None, mu: float | None = None, T: float | None = None):
+        self.params = params if params is not None else HydrogelParams()
+        self.mu = float(self.params.mu0 if mu is None else mu)
+        self.T = float(self.params.T0 if T is None else T)
+        lam0 = self.params.lambda0
+        self._prestretch_sq = lam0**2
+        self._scale = self.params.kT_over_nu / lam0**3
+        self._energy_offset = float(self._scale * self._psi(3.0 * lam0**2, lam0**3, 0)[0])
+
+    def at(self, mu: float, T: float) -> "Hydrogel":
+        """The same gel at another stimulus (mu [k_B T], T [K])."""
+        return Hydrogel(self.params, mu, T)
+
+    def __repr__(self) -> str:
+        return f"Hydrogel(mu={self.mu:.6g}, T={self.T:.6g}, {self.params!r})"
+
+    @property
+    def shear_modulus_ref(self) -> float:
+        """Network shear modulus in the as-prepared state, n (k_B T / nu) / lambda0 [MPa]."""
+        return self.params.n * self.params.kT_over_nu / self.params.lambda0
+
+    def _admissible(self, J):
+        return J > 1.0
+
+    def _psi(self, I1, J, order):
+        return gel_psi(self.params, self.mu, self.T, I1, J, order)
+
+    def swelling_ratio(self, F: np.ndarray) -> np.ndarray:
+        """Volume ratio to the dry network, J_dry = lambda0^3 det F [-]."""
+        return self.params.lambda0**3 * _det_inv(np.asarray(F, dtype=float))[0]

@@ -1,0 +1,153 @@
+"""Material-point swelling of the PNIPAM gel: free and constrained equilibria (DESIGN.md section 3).
+
+Stretches here are measured from the *dry* network (as in the paper's equations); ``stretch_rel``
+divides by lambda0 to give the stretch from the as-prepared state. Chemical potentials are in
+units of k_B T, temperatures in K.
+
+The gel energy is non-convex in J near the volume phase transition, so an equilibrium is found as
+the *global* minimiser over the free stretch: every stationary point on a fine logarithmic grid of
+J is bracketed and refined, and the lowest-energy minimum is reported.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from hydrojam.materials.energies import (  # noqa: F401 - nominal_stresses, reference_chemical_potential are part of this API
+    HydrogelParams,
+    gel_psi,
+    mixing_g,
+    nominal_stresses,
+    reference_chemical_potential,
+)
+
+J_MAX = 1.0e6  # a gel that would swell beyond this has no equilibrium (mu > 0)
+_GRID = np.exp(np.linspace(np.log(1e-9), np.log(J_MAX), 4001))  # values of J - 1
+
+
+@dataclass(frozen=True)
+class SwellingState:
+    """A stress-free (in its free directions) equilibrium of the gel at (mu, T)."""
+
+    T: float
+    mu: float
+    stretch: float  # free stretch, from the dry network [-]
+    stretch_rel: float  # free stretch, from the as-prepared state [-]
+    J: float  # volume ratio to the dry network [-]
+    branch: str  # "swollen" or "collapsed"
+    energy: float  # w per dry volume at equilibrium [k_B T / nu]
+    bistable: bool  # both branches are local minima at this (mu, T)
+
+
+@dataclass(frozen=True)
+class Transition:
+    """Volume phase transition at fixed mu: T where the two branches have equal energy."""
+
+    T: float  # transition temperature [K]
+    discontinuous: bool  # two coexisting minima (a volume jump) rather than a smooth crossover
+    J_swollen: float
+    J_collapsed: float
+
+
+def _energy(params, mu, T, lam):
+    lam = np.asarray(lam, dtype=float)
+    I1 = np.sum(lam**2, axis=-1)
+    J = np.prod(lam, axis=-1)
+    return gel_psi(params, mu, T, I1, J, 0)[0]
+
+
+def _minima(params: HydrogelParams, mu: float, T: float, held: tuple[float, ...]):
+    """All local minima (t, J, w) of w over the free stretch t, equal in the 3 - len(held) free directions."""
+    k = 3 - len(held)
+    if k == 3 and mu > 0:  # w ~ 3n/2 l^2 - mu l^3 -> -inf: a free gel swells without bound
+        raise ValueError(f"no equilibrium: a free gel swells without bound at mu={mu} kT > 0 (mu must be <= 0)")
+    Ph = float(np.prod(held)) if held else 1.0
+    J = 1.0 + _GRID
+
+    def stretches(t):
+        t = np.atleast_1d(t)
+        return np.concatenate([np.broadcast_to(held, (t.size, len(held))), np.repeat(t[:, None], k, 1)], 1)
+
+    def s_free(t):
+        return nominal_stresses(params, stretches(t), mu, T)[:, -1]
+
+    t = (J / Ph) ** (1.0 / k)
+    s = s_free(t)
+    if s[-1] < 0:
+        raise ValueError(
+            f"no equilibrium: the gel swells without bound at mu={mu} kT, T={T} K (mu must be <= 0)"
+        )
+    found = []
+    for i in np.nonzero((s[:-1] < 0) & (s[1:] >= 0))[0]:
+        tm = brentq(lambda x: s_free(x)[0], t[i], t[i + 1], xtol=1e-14, rtol=1e-14)
+        found.append((tm, Ph * tm**k, float(_energy(params, mu, T, stretches(tm))[0])))
+    return found
+
+
+def _equilibrium(params, mu, T, held, T_c):
+    mins = _minima(params, mu, T, tuple(held))
+    t, J, w = min(mins, key=lambda m: m[2])
+    if len(mins) > 1:
+        branch = "swollen" if J == max(m[1] for m in mins) else "collapsed"
+    else:
+        branch = "swollen" if T < T_c else "collapsed"
+    return SwellingState(T, mu, t, t / params.lambda0, J, branch, w, len(mins) > 1)
+
+
+def transition_temperature(params: HydrogelParams, mu: float = 0.0, T_range=(273.15, 373.15)) -> Transition:
+    """Volume phase transition temperature [K] of the free gel at chemical potential mu [k_B T].
+
+    Where two minima coexist the transition is the Maxwell temperature (equal energies); where the
+    swelling curve is continuous, the temperature of the steepest fall of J.
+    """
+    Ts = np.linspace(*T_range, 201)
+    mins = [_minima(params, mu, T, ()) for T in Ts]
+    bist = [i for i, m in enumerate(mins) if len(m) > 1]
+
+    def gap(T):
+        m = _minima(params, mu, T, ())
+        if len(m) < 2:  # outside the bistable window: the only branch (swollen below it) wins
+            return -1.0 if T < Ts[bist[0]] else 1.0
+        sw = max(m, key=lambda x: x[1])
+        co = min(m, key=lambda x: x[1])
+        return sw[2] - co[2]
+
+    if bist:
+        lo, hi = Ts[max(bist[0] - 1, 0)], Ts[min(bist[-1] + 1, len(Ts) - 1)]
+        Tc = brentq(gap, lo, hi, xtol=1e-9)
+        m = _minima(params, mu, Tc, ())
+        return Transition(Tc, True, max(x[1] for x in m), min(x[1] for x in m))
+    lnJ = np.log([min(m, key=lambda x: x[2])[1] for m in mins])
+    i = int(np.argmin(np.gradient(lnJ, Ts)))
+    J = np.exp(lnJ[i])
+    return Transition(float(Ts[i]), False, J, J)
+
+
+def free_swelling(params: HydrogelParams, mu: float, T: float, T_c: float | None = None) -> SwellingState:
+    """Stable stress-free state of a free gel (F = lambda I) at (mu [k_B T], T [K])."""
+    if T_c is None:
+        T_c = transition_temperature(params, mu).T
+    return _equilibrium(params, mu, T, (), T_c)
+
+
+def swelling_curve(params: HydrogelParams, mu: float, temperatures) -> tuple[Transition, list[SwellingState]]:
+    """Free-swelling states over a list of temperatures [K] at one mu [k_B T], and the transition."""
+    tr = transition_temperature(params, mu)
+    return tr, [_equilibrium(params, mu, float(T), (), tr.T) for T in temperatures]
+
+
+def constrained_swelling(params: HydrogelParams, mu: float, T: float, held) -> SwellingState:
+    """Equilibrium with one or two principal stretches held (dry reference), the others free and equal.
+
+    ``held=(l1,)``: uniaxially constrained (stretch l1 held, two lateral directions free);
+    ``held=(l1, l2)``: biaxially constrained, e.g. a layer bonded to a rigid substrate with
+    ``held=(lambda0, lambda0)`` swells in thickness only. The free stretches carry zero stress.
+    """
+    held = tuple(float(h) for h in np.atleast_1d(held))
+    if not 1 <= len(held) <= 2 or min(held) <= 0:
+        raise ValueError("held must be one or two positive stretches")
+    T_c = transition_temperature(params, mu).T if mu <= 0 else np.inf  # no free-gel transition above 0
+    return _equilibrium(params, mu, T, held, T_c)

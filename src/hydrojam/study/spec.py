@@ -1,0 +1,313 @@
+"""A study: a base design and named parameter sweeps over it, read from and written to TOML.
+
+Each sweep varies one or more dotted design fields; its points are the cartesian product of the
+value lists, in key order then value order (the last key varies fastest). Every point's design
+is validated when the study is made, so a bad value is refused before any work with one line
+naming the sweep, the field and its allowed range (:class:`StudyError`, a
+:class:`~hydrojam.design.DesignError`).
+
+The study file (every key optional except ``[[sweep]]``)::
+
+    name = "my-study"
+    base = "design.toml"          # a design file, relative to the study file (default: the default design)
+    [design]                      # overrides of the base design: the keys of design.toml, nested tables
+    particle_layers = 5
+    [[sweep]]
+    name = "temperature"          # letters, digits, '_' and '-'
+    [sweep.vary]
+    "stimulus.temperature" = [275, 285, 295]
+
+Points with equal resolved designs have equal :func:`design_key`, the name of their folder in a
+sweep's cache (:mod:`hydrojam.study.sweep`): the base point shared by two sweeps is computed once.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator, model_validator
+
+from hydrojam._io import read_toml, write_text_atomic
+from hydrojam._validation import _short, explain_error, submodel
+from hydrojam.actuator.design import Design, DesignError, _merge, _toml, default_design, design_from_dict, load_design
+
+#: bump when what a cached point holds changes: every key changes, so nothing old is reused
+CACHE_FORMAT = 1
+
+_NAME_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-")
+_TOP_KEYS = ("name", "base", "design", "sweep")
+
+__all__ = [
+    "CACHE_FORMAT",
+    "Point",
+    "Study",
+    "StudyError",
+    "SweepSpec",
+    "design_key",
+    "load_study",
+    "study_from_dict",
+    "study_to_toml",
+    "write_study",
+]
+
+
+class StudyError(DesignError):
+    """Invalid study: one line naming the sweep, the dotted design field and its allowed range."""
+
+
+def design_key(design: Design) -> str:
+    """16 hex digits of SHA-256 over the resolved design (canonical JSON) and :data:`CACHE_FORMAT`.
+
+    Equal designs written differently (a derived cavity size left out or written out) share a key.
+    """
+    data = {"cache_format": CACHE_FORMAT, "design": design.resolved().model_dump(mode="json")}
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+def _check_name(value: str, what: str) -> str:
+    if not value or not set(value) <= _NAME_CHARS:
+        raise ValueError(f"{what}: must be a non-empty name of letters, digits, '_' and '-' (got {value!r})")
+    return value
+
+
+def _leaf_field(path: str) -> str | None:
+    """Why ``path`` is not a dotted leaf field of Design, or None if it is one."""
+    parts = path.split(".")
+    if not path or any(not p for p in parts):
+        return "expected a dotted design field, e.g. stimulus.temperature"
+    for i, name in enumerate(parts):
+        model = submodel(Design, parts[:i])
+        if model is None:
+            return f"{'.'.join(parts[:i])} is not a table"
+        if name not in model.model_fields:
+            return f"unknown design field (allowed here: {', '.join(model.model_fields)})"
+    table = submodel(Design, parts)
+    if table is not None:
+        return f"is a table; vary one of its fields, e.g. {path}.{next(iter(table.model_fields))}"
+    return None
+
+
+class SweepSpec(BaseModel):
+    """One sweep: ``vary`` maps dotted design fields to value lists; the points are their product."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    name: str = Field(description="sweep name: letters, digits, '_' and '-'")
+    vary: dict[str, list[bool | int | float | str]] = Field(
+        description="dotted design field -> non-empty list of values, e.g. {'stimulus.temperature': [275, 295]}"
+    )
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        return _check_name(v, "name")
+
+    @field_validator("vary")
+    @classmethod
+    def _vary(cls, v: dict) -> dict:
+        if not v:
+            raise ValueError("vary: give at least one dotted design field and its values")
+        for key, values in v.items():
+            why = _leaf_field(key)
+            if why is not None:
+                raise ValueError(f"vary.{key}: {why}")
+            if not values:
+                raise ValueError(f"vary.{key}: give at least one value (got an empty list)")
+        return v
+
+    def grid(self) -> list[dict[str, Any]]:
+        """The points' varied values, the product over the keys in order (the last varies fastest)."""
+        keys = list(self.vary)
+        return [dict(zip(keys, combo)) for combo in itertools.product(*(self.vary[k] for k in keys))]
+
+
+@dataclass(frozen=True)
+class Point:
+    """One point of a study: its sweep, index within the sweep, varied values, design and cache key."""
+
+    sweep: str
+    index: int
+    values: dict[str, Any]
+    design: Design
+    key: str
+
+
+def _point_design(base: Design, values: dict[str, Any]) -> Design:
+    """The base design with the dotted values applied (derived cavity sizes follow), validated."""
+    data = base.model_dump(exclude_none=True)
+    for key, value in values.items():
+        _merge(data, key.split("."), value)
+    return design_from_dict(data)
+
+
+class Study(BaseModel):
+    """A base design and named sweeps over it; :meth:`points` lists every (sweep, point).
+
+    Every point's design is validated when the study is made; the first invalid one is refused
+    with a message naming its sweep and field.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str = Field("study", description="study name: letters, digits, '_' and '-'")
+    base: Design = Field(default_factory=default_design, description="the design every sweep starts from")
+    sweeps: list[SweepSpec] = Field(description="the sweeps, at least one, unique names")
+
+    _points: list[Point] = PrivateAttr(default_factory=list)
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        return _check_name(v, "name")
+
+    @model_validator(mode="after")
+    def _check(self) -> Study:
+        if not self.sweeps:
+            raise ValueError("sweep: give at least one [[sweep]]")
+        seen: set[str] = set()
+        for sweep in self.sweeps:
+            if sweep.name in seen:
+                raise ValueError(f"sweep '{sweep.name}': duplicate sweep name; each sweep needs its own")
+            seen.add(sweep.name)
+        points: list[Point] = []
+        for sweep in self.sweeps:
+            for index, values in enumerate(sweep.grid()):
+                try:
+                    design = _point_design(self.base, values)
+                except DesignError as err:
+                    given = ", ".join(f"{k} = {v!r}" for k, v in values.items())
+                    raise ValueError(f"sweep '{sweep.name}' point {index} ({given}): {err}") from None
+                points.append(Point(sweep.name, index, values, design, design_key(design)))
+        self._points = points
+        return self
+
+    def points(self) -> list[Point]:
+        """Every point of every sweep, in study order (sweep order, then grid order)."""
+        return list(self._points)
+
+    def varied_fields(self) -> list[str]:
+        """The dotted fields varied anywhere in the study, in order of first appearance."""
+        return list(dict.fromkeys(k for s in self.sweeps for k in s.vary))
+
+
+# -------------------------------------------------------------------- reading
+
+
+def _one_line(err: ValidationError, model: type[BaseModel], prefix: str) -> str:
+    e = err.errors()[0]
+    loc = e["loc"]
+    if e["type"] in ("value_error", "assertion_error") and (not loc or loc[0] in ("name", "vary")):
+        # our validators' messages already start with the field they are about
+        msg = e["msg"].removeprefix("Value error, ").removeprefix("Assertion error, ")
+    elif loc and loc[0] == "vary" and len(loc) > 1:
+        msg = f"vary.{loc[1]}: expected a list of numbers, strings or booleans (got {_short(e.get('input'))})"
+    else:
+        msg = explain_error(err, model)
+    return f"{prefix}{msg}"
+
+
+def _sweep_from_dict(raw: Any, i: int) -> SweepSpec:
+    if not isinstance(raw, dict):
+        raise StudyError(f"sweep[{i}]: expected a [[sweep]] table, got {type(raw).__name__}")
+    label = f"sweep '{raw['name']}'" if isinstance(raw.get("name"), str) and raw["name"] else f"sweep[{i}]"
+    for key in raw:
+        if key not in SweepSpec.model_fields:
+            raise StudyError(f"{label}: {key}: unknown key (allowed: {', '.join(SweepSpec.model_fields)})")
+    if not isinstance(raw.get("vary", {}), dict):
+        raise StudyError(f"{label}: vary: expected a [sweep.vary] table of dotted field = [values]")
+    if "vary" not in raw:
+        raise StudyError(f'{label}: vary: required table missing, e.g. [sweep.vary] "stimulus.temperature" = [275, 295]')
+    try:
+        return SweepSpec.model_validate(raw, strict=True)
+    except ValidationError as err:
+        raise StudyError(_one_line(err, SweepSpec, f"{label}: ")) from None
+
+
+def study_from_dict(data: dict, root: str | os.PathLike | None = None) -> Study:
+    """A validated Study from parsed TOML (see the module docstring); ``base`` is read relative to
+    ``root`` (default: the current folder). Raises StudyError (one line)."""
+    if not isinstance(data, dict):
+        raise StudyError(f"study: expected a table of keys, got {type(data).__name__}")
+    for key in data:
+        if key not in _TOP_KEYS:
+            raise StudyError(f"{key}: unknown key (allowed: {', '.join(_TOP_KEYS)})")
+    name = data.get("name", "study")
+    if not isinstance(name, str):
+        raise StudyError(f"name: expected a string, got {name!r}")
+    base = default_design()
+    if "base" in data:
+        if not isinstance(data["base"], str):
+            raise StudyError(f"base: expected the path of a design file, got {data['base']!r}")
+        path = Path(data["base"])
+        if not path.is_absolute():
+            path = Path(root or ".") / path
+        try:
+            base = load_design(path)
+        except DesignError as err:
+            raise StudyError(f"base: {err}") from None
+    if "design" in data:
+        overrides = data["design"]
+        if not isinstance(overrides, dict):
+            raise StudyError(f"design: expected a table of design keys, got {type(overrides).__name__}")
+        merged = base.model_dump(exclude_none=True)
+        for key, value in overrides.items():
+            _merge(merged, [key], value)
+        try:
+            base = design_from_dict(merged)
+        except DesignError as err:
+            raise StudyError(f"design.{err}") from None
+    raw_sweeps = data.get("sweep", [])
+    if not isinstance(raw_sweeps, list) or not raw_sweeps:
+        raise StudyError('sweep: give at least one [[sweep]] table with a name and a [sweep.vary] table')
+    sweeps = [_sweep_from_dict(raw, i) for i, raw in enumerate(raw_sweeps)]
+    try:
+        return Study(name=name, base=base, sweeps=sweeps)
+    except ValidationError as err:
+        raise StudyError(_one_line(err, Study, "")) from None
+
+
+def load_study(path: str | os.PathLike) -> Study:
+    """Read a study TOML file; raises StudyError naming the file for a missing or invalid one."""
+    path = Path(path)
+    data = read_toml(path, "study", StudyError)
+    try:
+        return study_from_dict(data, root=path.parent)
+    except DesignError as err:
+        raise StudyError(f"{path}: {err}") from None
+
+
+# -------------------------------------------------------------------- writing
+
+_HEADER = """\
+# hydrojam study: a base design ([design], every field written out) and named sweeps over it.
+# Each sweep's points are the product of its value lists. Run it with:
+#   hydrojam sweep study.toml -o out
+"""
+
+
+def study_to_toml(study: Study) -> str:
+    """The study as a self-contained TOML document: the full base design inline (derived cavity
+    sizes left out, so they follow a varied particle count) and the sweeps.
+
+    Round-trips: ``study_from_dict(tomllib.loads(study_to_toml(s))) == s``.
+    """
+    text = tomli_w.dumps({"name": study.name, "design": study.base.model_dump(exclude_none=True)})
+    for sweep in study.sweeps:
+        lines = ["", "[[sweep]]", f"name = {_toml(sweep.name)}", "", "[sweep.vary]"]
+        for key, values in sweep.vary.items():
+            lines.append(f"{_toml(key) if '.' in key else key} = [{', '.join(_toml(v) for v in values)}]")
+        text += "\n".join(lines) + "\n"
+    return _HEADER + "\n" + text
+
+
+def write_study(path: str | os.PathLike, study: Study) -> None:
+    """Write the study as TOML to ``path`` atomically."""
+    write_text_atomic(path, study_to_toml(study))

@@ -1,0 +1,500 @@
+"""Run a study's points in parallel with dask.distributed, cached on disk and resumable.
+
+Layout of an output folder ``OUT``::
+
+    study.toml              the study, self-contained (the base design inline)
+    points/<key>/           one folder per distinct design (key: hydrojam.study.design_key)
+        point.json          the outcome, written last: the point is finished when it exists
+        design.toml metrics.json history.csv centreline.csv final.png
+                            as ``hydrojam run --no-vtu`` writes them
+        final.vtu           the final state (points (x, 0, z) mm; cell data body_id: 0 membrane,
+                            1 strain-limit layer, 2 + k particle k)
+        error.txt           the traceback of a failed point
+    results.csv             one row per (sweep, point), see :class:`SweepTable`
+    results.parquet         the same, typed columns, nulls for undefined values
+
+``point.json``: ``{"key", "status": "ok" | "not_converged" | "failed", "error", "metrics",
+"wall_time_s", "point_time_s", "hydrojam_version"}``; ``wall_time_s`` is the wall time the point
+function reports in its metrics (hydrojam's: the load path, without meshing and writing), else
+the point's whole time, ``point_time_s``, measured on the worker. A rerun into the same ``OUT`` loads the
+points whose status is ok or not_converged and runs the others again (failed ones, and those a
+kill left without point.json); a point's folder is cleared before it runs. The cache key is the
+resolved design only: a change of hydrojam's code is not noticed (delete ``OUT/points``).
+
+With a ``scheduler`` address the points run on that dask cluster; its workers must see ``OUT`` at
+the same path (a shared file system) and should run one thread each (``--nthreads 1``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import logging
+import os
+import shutil
+import time
+import traceback
+import types
+import typing
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hydrojam._io import atomic_path, write_text_atomic
+from hydrojam._validation import owner_model
+from hydrojam.actuator.design import Design, DesignError
+from hydrojam.actuator.results import _json_safe
+from hydrojam.study.spec import Point, Study, StudyError, write_study
+
+#: seconds to wait for a dask scheduler given by address
+CONNECT_TIMEOUT_S = 10.0
+
+#: metric columns of the table, with their types (from metrics.json / SimulationResult.metrics)
+METRIC_COLUMNS: dict[str, type] = {
+    "bending_angle_deg": float,
+    "tip_dx_mm": float,
+    "tip_dz_mm": float,
+    "curling_index": float,
+    "max_curvature_per_mm": float,
+    "packing_fraction": float,
+    "contacts_per_particle": float,
+    "mean_swelling_ratio": float,
+    "converged": bool,
+    "stabilization_released": bool,
+    "s_reached": float,
+    "load_steps": int,
+    "newton_iterations": int,
+}
+_HEAD: dict[str, type] = {"sweep": str, "point": int, "key": str}
+_TAIL: dict[str, type] = {"wall_time_s": float, "status": str, "error": str, "point_dir": str}
+_FINISHED = ("ok", "not_converged")
+
+__all__ = [
+    "CONNECT_TIMEOUT_S",
+    "METRIC_COLUMNS",
+    "PointOutcome",
+    "SchedulerError",
+    "SweepTable",
+    "run_point",
+    "run_sweep",
+]
+
+
+class SchedulerError(ConnectionError):
+    """The dask scheduler given by address cannot be reached."""
+
+
+# -------------------------------------------------------------------- one point
+
+
+def run_point(design: Design, point_dir: Path) -> dict:
+    """Simulate one design into ``point_dir`` (the files of ``hydrojam run --no-vtu`` plus
+    ``final.vtu``); returns the metrics written to metrics.json. Raises what the run raises."""
+    from hydrojam.actuator.model import build_model
+    from hydrojam.actuator.results import ResultWriter, write_vtu
+    from hydrojam.actuator.simulate import simulate
+
+    model = build_model(design)
+    writer = ResultWriter(point_dir, model, vtu=False)
+    writer.start()
+    result = simulate(model, on_step=writer.step)
+    metrics = writer.finish(result)
+    write_vtu(Path(point_dir) / "final.vtu", model, result.final)
+    return metrics
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _write_record(point_dir: Path, record: dict) -> None:
+    write_text_atomic(point_dir / "point.json", json.dumps(record, indent=2, allow_nan=False) + "\n")
+
+
+def _record(key: str, status: str, error: str | None, metrics: dict | None, wall: float | None,
+            point_time: float | None) -> dict:
+    from hydrojam import __version__
+
+    return _json_safe({"key": key, "status": status, "error": error, "metrics": metrics, "wall_time_s": wall,
+                       "point_time_s": point_time, "hydrojam_version": __version__})
+
+
+def _execute(point_fn: Callable[[Design, Path], dict], design: Design, point_dir: str, key: str) -> dict:
+    """Worker side: clear the point's folder, run ``point_fn``, write point.json last; never raises
+    for the point's own failure (recorded as status "failed" with error.txt)."""
+    folder = Path(point_dir)
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    t0 = time.perf_counter()
+    try:
+        metrics = point_fn(design, folder)
+        if not isinstance(metrics, dict):
+            raise TypeError(f"the point function returned {type(metrics).__name__}, not a dict of metrics")
+        metrics = _json_safe(dict(metrics))
+        json.dumps(metrics, allow_nan=False)
+    except Exception as err:  # a failing point never stops the others
+        elapsed = time.perf_counter() - t0
+        write_text_atomic(folder / "error.txt", traceback.format_exc())
+        record = _record(key, "failed", _one_line(f"{type(err).__name__}: {err}"), None, elapsed, elapsed)
+    else:
+        elapsed = time.perf_counter() - t0
+        converged = metrics.get("converged", True) is not False
+        error = None if converged else _one_line(metrics.get("message") or "the solver stopped early")
+        wall = metrics.get("wall_time_s")
+        wall = wall if isinstance(wall, (int, float)) and not isinstance(wall, bool) else elapsed
+        record = _record(key, "ok" if converged else "not_converged", error, metrics, wall, elapsed)
+    _write_record(folder, record)
+    return record
+
+
+def _read_record(point_dir: Path) -> dict | None:
+    try:
+        record = json.loads((point_dir / "point.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) else None
+
+
+# -------------------------------------------------------------------- the table
+
+
+def _field_type(path: str) -> type:
+    """The Python type (bool, int, float, str) of a dotted Design field."""
+    owner = owner_model(Design, path)
+    ann = owner[0].model_fields[owner[1]].annotation if owner else str
+    if typing.get_origin(ann) in (typing.Union, types.UnionType):  # Optional[X]: X
+        ann = next((a for a in typing.get_args(ann) if a is not type(None)), str)
+    if typing.get_origin(ann) is typing.Literal:
+        ann = type(typing.get_args(ann)[0])
+    return ann if ann in (bool, int, float, str) else str
+
+
+def _column_type(name: str) -> type:
+    for group in (_HEAD, METRIC_COLUMNS, _TAIL):
+        if name in group:
+            return group[name]
+    return _field_type(name)
+
+
+def _coerce(value: Any, kind: type) -> Any:
+    if value is None:
+        return None
+    try:
+        if kind is bool:
+            return value if isinstance(value, bool) else None
+        if isinstance(value, bool):
+            return None if kind in (int, float) else str(value).lower()
+        if kind is int:
+            return int(value) if float(value) == int(value) else None
+        if kind is float:
+            v = float(value)
+            return v if v == v and abs(v) != float("inf") else None
+        return str(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
+
+
+def _csv_cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def _parse_cell(text: str, kind: type) -> Any:
+    if text == "":
+        return None
+    if kind is bool:
+        return {"true": True, "false": False}[text]
+    return kind(text)
+
+
+@dataclass(frozen=True)
+class SweepTable:
+    """A study's results: one row per (sweep, point), in study order.
+
+    Columns: ``sweep``, ``point`` (index within the sweep), ``key`` (the cache folder), one column
+    per dotted design field varied anywhere in the study (that row's design value, resolved), the
+    :data:`METRIC_COLUMNS`, ``wall_time_s``, ``status``, ``error`` and ``point_dir`` (relative to
+    OUT). Undefined values are None (empty in CSV, null in Parquet), never NaN.
+    """
+
+    rows: list[dict]
+    columns: list[str]
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def select(self, sweep: str) -> SweepTable:
+        """The rows of one sweep."""
+        return SweepTable([r for r in self.rows if r["sweep"] == sweep], list(self.columns))
+
+    def column(self, name: str) -> list:
+        """One column's values, row by row."""
+        if name not in self.columns:
+            raise KeyError(f"{name}: no such column (columns: {', '.join(self.columns)})")
+        return [r[name] for r in self.rows]
+
+    def to_csv(self) -> str:
+        """The table as CSV text (booleans true/false, undefined values empty)."""
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(self.columns)
+        w.writerows([_csv_cell(r[c]) for c in self.columns] for r in self.rows)
+        return buf.getvalue()
+
+    def to_arrow(self):
+        """The table as a ``pyarrow.Table``: float64, int64, bool and string columns, nullable."""
+        import pyarrow as pa
+
+        arrow = {bool: pa.bool_(), int: pa.int64(), float: pa.float64(), str: pa.string()}
+        fields = [pa.field(c, arrow[_column_type(c)], nullable=True) for c in self.columns]
+        return pa.table({c: pa.array([r[c] for r in self.rows], type=f.type) for c, f in zip(self.columns, fields)},
+                        schema=pa.schema(fields))
+
+    def write(self, out: str | os.PathLike) -> None:
+        """Write ``OUT/results.csv`` and ``OUT/results.parquet``, each atomically."""
+        import pyarrow.parquet as pq
+
+        out = Path(out)
+        write_text_atomic(out / "results.csv", self.to_csv())
+        with atomic_path(out / "results.parquet") as tmp:
+            pq.write_table(self.to_arrow(), tmp)
+
+    @classmethod
+    def read(cls, out: str | os.PathLike) -> SweepTable:
+        """Load ``OUT/results.csv`` (or a CSV file's path) back, the column types restored."""
+        path = Path(out)
+        if path.is_dir():
+            path = path / "results.csv"
+        with path.open(newline="", encoding="utf-8") as f:
+            reader = csv.reader(f)
+            columns = next(reader)
+            kinds = [_column_type(c) for c in columns]
+            rows = [{c: _parse_cell(v, k) for c, k, v in zip(columns, kinds, line)} for line in reader]
+        return cls(rows, columns)
+
+
+def _walk(design: Design, path: str) -> Any:
+    value: Any = design
+    for name in path.split("."):
+        value = getattr(value, name)
+    return value
+
+
+def build_table(study: Study, records: dict[str, dict]) -> SweepTable:
+    """The table of a study from its points' outcome records (point.json), keyed by design key."""
+    varied = study.varied_fields()
+    columns = [*_HEAD, *varied, *METRIC_COLUMNS, *_TAIL]
+    rows = []
+    for p in study.points():
+        rec = records.get(p.key) or {"status": "failed", "error": "no outcome recorded"}
+        metrics = rec.get("metrics") or {}
+        resolved = p.design.resolved()
+        row: dict[str, Any] = {"sweep": p.sweep, "point": p.index, "key": p.key}
+        row.update({k: _coerce(_walk(resolved, k), _field_type(k)) for k in varied})
+        row.update({k: _coerce(metrics.get(k), kind) for k, kind in METRIC_COLUMNS.items()})
+        row.update(wall_time_s=_coerce(rec.get("wall_time_s"), float), status=_coerce(rec.get("status"), str),
+                   error=_coerce(rec.get("error"), str), point_dir=f"points/{p.key}")
+        rows.append(row)
+    return SweepTable(rows, columns)
+
+
+# -------------------------------------------------------------------- the sweep
+
+
+@dataclass(frozen=True)
+class PointOutcome:
+    """The outcome of one distinct design: its record (point.json) and the study points sharing it."""
+
+    record: dict
+    cached: bool
+    points: tuple[Point, ...]
+    point_dir: Path
+
+    @classmethod
+    def from_record(cls, record: dict, points: list[Point], point_dir: Path, cached: bool) -> PointOutcome:
+        return cls(record, cached, tuple(points), point_dir)
+
+    @property
+    def key(self) -> str:
+        return self.record.get("key", self.points[0].key)
+
+    @property
+    def status(self) -> str:
+        return self.record.get("status", "failed")
+
+    @property
+    def error(self) -> str | None:
+        return self.record.get("error")
+
+    @property
+    def metrics(self) -> dict | None:
+        return self.record.get("metrics")
+
+    @property
+    def wall_time_s(self) -> float | None:
+        return self.record.get("wall_time_s")
+
+
+def estimated_cost(design: Design) -> float:
+    """A rough relative cost of simulating a design: particles / mesh.size^2."""
+    return design.particle_layers * design.particles_per_layer / design.mesh.size**2
+
+
+def _check_address(address: str) -> None:
+    """SchedulerError at once for a malformed address (a Client made of one hangs 20 s when
+    collected)."""
+    from distributed.comm.addressing import get_address_host_port
+    from distributed.comm.registry import backends
+
+    scheme = address.split("://", 1)[0] if "://" in address else "tcp"
+    try:
+        if scheme not in backends:
+            raise ValueError(f"unknown scheme {scheme!r} (known: {', '.join(sorted(backends))})")
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            get_address_host_port(address)
+    except ValueError as err:
+        raise SchedulerError(
+            f"{address}: not a scheduler address, e.g. tcp://10.0.0.5:8786 ({_one_line(err)})") from None
+
+
+def _connect(address: str):
+    from distributed import Client
+
+    _check_address(address)
+    try:
+        return Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+    except (OSError, ValueError, TypeError) as err:
+        raise SchedulerError(f"{address}: cannot connect within {CONNECT_TIMEOUT_S:g} s ({_one_line(err)})") from None
+
+
+def _local_cluster(n_workers: int):
+    import dask
+    from distributed import Client, LocalCluster
+
+    # one single-threaded process per core: hydrojam's PARDISO and IPC run one thread each
+    # ":0": its HTTP server (which starts even without a dashboard) on a free port, not 8787
+    # allowed-failures 0: a point that kills its worker (memory, a crash) is recorded as failed
+    # at once, not retried 3 more times on fresh workers (a rerun of the sweep retries it)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               silence_logs=logging.ERROR, memory_limit=0)
+    try:
+        return cluster, Client(cluster, set_as_default=False)
+    except BaseException:
+        cluster.close()
+        raise
+
+
+def run_sweep(
+    study: Study,
+    out: str | os.PathLike,
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    on_point: Callable[[PointOutcome, int, int], None] | None = None,
+    point_fn: Callable[[Design, Path], dict] = run_point,
+) -> SweepTable:
+    """Run every distinct design of ``study`` into ``OUT/points/<key>/`` and write the table.
+
+    Finished points (point.json ok or not_converged) are loaded, not run; the others run on a
+    dask cluster: the one at ``scheduler`` (an address), else a local one with ``workers``
+    single-threaded processes (default: one per CPU, at most one per point to run). The most
+    expensive points start first. ``on_point(outcome, done, total)`` is called for every distinct
+    design, the cached ones first, then each as it finishes. ``point_fn(design, point_dir) ->
+    metrics`` is what a point runs (default :func:`run_point`); its exceptions are recorded as
+    failed points. On KeyboardInterrupt the futures are cancelled, the cluster closed, and the
+    interrupt re-raised: finished points are on disk. Returns the table, also written to
+    ``OUT/results.csv`` and ``OUT/results.parquet``.
+
+    Raises StudyError for a point the simulator does not support, ValueError for workers < 1,
+    SchedulerError when the scheduler cannot be reached; none of them writes anything.
+    """
+    from hydrojam.actuator.model import check_supported
+
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"workers: must be an integer >= 1 (got {workers!r})")
+    for p in study.points():
+        try:
+            check_supported(p.design)
+        except DesignError as err:
+            raise StudyError(f"sweep '{p.sweep}' point {p.index}: {err}") from None
+    out = Path(out).absolute()
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"{out}: exists and is not a folder")
+    groups: dict[str, list[Point]] = {}
+    for p in study.points():
+        groups.setdefault(p.key, []).append(p)
+    records: dict[str, dict] = {}
+    for key in groups:
+        rec = _read_record(out / "points" / key)
+        if rec is not None and rec.get("status") in _FINISHED:
+            records[key] = rec
+    pending = [key for key in groups if key not in records]
+
+    client = cluster = None
+    try:
+        if scheduler is not None:  # connected only when there is something to run
+            client = _connect(scheduler) if pending else _check_address(scheduler)
+        write_study(out / "study.toml", study)
+        total, done = len(groups), 0
+        for key in groups:
+            if key in records:
+                done += 1
+                if on_point is not None:
+                    outcome = PointOutcome.from_record(records[key], groups[key], out / "points" / key, True)
+                    on_point(outcome, done, total)
+        if pending:
+            if client is None:
+                cluster, client = _local_cluster(min(workers or os.cpu_count() or 1, len(pending)))
+            done = _compute(client, groups, pending, out, point_fn, records, on_point, done, total)
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    table = build_table(study, records)
+    table.write(out)
+    return table
+
+
+def _compute(client, groups, pending, out, point_fn, records, on_point, done, total) -> int:
+    from distributed import as_completed
+
+    order = sorted(pending, key=lambda k: -estimated_cost(groups[k][0].design))  # stable: study order on ties
+    token = uuid.uuid4().hex[:8]
+    futures = {}
+    for rank, key in enumerate(order):
+        fut = client.submit(_execute, point_fn, groups[key][0].design, str(out / "points" / key), key,
+                            key=f"hydrojam-point-{key}-{token}", priority=len(order) - rank, pure=False)
+        futures[fut] = key
+    try:
+        for fut in as_completed(list(futures), loop=client.loop):
+            key = futures[fut]
+            folder = out / "points" / key
+            if fut.status == "finished":
+                rec = fut.result()
+                if not (folder / "point.json").exists():  # a worker without our file system
+                    _write_record(folder, rec)
+            else:  # the worker died or the task was lost: record it as a failed point
+                exc = fut.exception() if fut.status == "error" else None
+                error = _one_line(f"{type(exc).__name__}: {exc}") if exc is not None else f"task {fut.status}"
+                rec = _record(key, "failed", error, None, None, None)
+                folder.mkdir(parents=True, exist_ok=True)
+                _write_record(folder, rec)
+            records[key] = json.loads(json.dumps(rec, allow_nan=False))  # as it reads back from point.json
+            done += 1
+            if on_point is not None:
+                on_point(PointOutcome.from_record(records[key], groups[key], folder, False), done, total)
+    except BaseException:
+        client.cancel(list(futures))
+        raise
+    return done

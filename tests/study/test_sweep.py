@@ -1,0 +1,303 @@
+"""Sweeps on dask.distributed: the per-point cache, failures, resuming after an interruption, the
+table (CSV and Parquet), a real simulation through a scheduler, and `hydrojam sweep`."""
+
+import json
+import logging
+import math
+import sys
+import time
+from pathlib import Path
+
+import cloudpickle
+import pyarrow.parquet as pq
+import pytest
+
+from hydrojam.cli import main
+from hydrojam.study.spec import Study, StudyError, study_from_dict, write_study
+from hydrojam.study.sweep import SchedulerError, SweepTable, run_sweep
+
+# the point functions below travel to the workers by value: no need for the workers to import this file
+cloudpickle.register_pickle_by_value(sys.modules[__name__])
+
+
+@pytest.fixture(scope="module")
+def scheduler():
+    """A real dask scheduler with two single-threaded worker processes; yields its address."""
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster:
+        yield cluster.scheduler_address
+
+
+# -------------------------------------------------------------------- cheap point functions
+
+
+def _log_call(point_dir: Path) -> None:
+    """Append the point's key to OUT.calls (OUT = point_dir/../..), one line per call."""
+    with open(str(point_dir.parents[1]) + ".calls", "a") as f:
+        f.write(point_dir.name + "\n")
+
+
+def calls(out: Path) -> list[str]:
+    path = Path(str(out) + ".calls")
+    return path.read_text().split() if path.exists() else []
+
+
+def cheap(design, point_dir):
+    """A stand-in for a simulation: metrics that depend on the design, a fixed wall time."""
+    _log_call(point_dir)
+    T = design.stimulus.temperature
+    (point_dir / "partial.txt").write_text("written while running\n")
+    return {"bending_angle_deg": 300.0 - T, "tip_dx_mm": -(300.0 - T) / 10, "tip_dz_mm": -1.0,
+            "curling_index": None, "max_curvature_per_mm": math.nan, "packing_fraction": 0.9,
+            "contacts_per_particle": 2, "mean_swelling_ratio": 1.5, "converged": True,
+            "stabilization_released": True, "s_reached": 1.0, "load_steps": design.particle_layers,
+            "newton_iterations": 10 * design.particle_layers, "wall_time_s": 0.25}
+
+
+def cheap_failing_285(design, point_dir):
+    """As :func:`cheap`, but the point at 285 K raises."""
+    if design.stimulus.temperature == 285.0:
+        _log_call(point_dir)
+        raise RuntimeError("solver exploded\n(on purpose)")
+    return cheap(design, point_dir)
+
+
+def cheap_slow(design, point_dir):
+    """As :func:`cheap_failing_285`, slow enough to be interrupted midway."""
+    time.sleep(0.3)
+    return cheap_failing_285(design, point_dir)
+
+
+def cheap_not_converged_295(design, point_dir):
+    m = cheap(design, point_dir)
+    if design.stimulus.temperature == 295.0:
+        m.update(converged=False, s_reached=0.6, message="the load step fell below ds_min at s = 0.6")
+    return m
+
+
+def small_study() -> Study:
+    """7 rows, 6 distinct designs: the base point (275 K, 1 layer) is in both sweeps."""
+    return study_from_dict({
+        "name": "small",
+        "design": {"particle_layers": 1, "mesh": {"size": 4.0}},
+        "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [275, 280, 285, 290, 295]}},
+                  {"name": "layers", "vary": {"particle_layers": [1, 2]}}],
+    })
+
+
+# -------------------------------------------------------------------- cache, failures, resume
+
+
+def test_failed_point_is_recorded_and_the_others_finish(scheduler, tmp_path):
+    out = tmp_path / "out"
+    seen = []
+    table = run_sweep(small_study(), out, scheduler=scheduler, point_fn=cheap_failing_285,
+                      on_point=lambda o, done, total: seen.append((o.status, done, total)))
+    assert [d for _, d, _ in seen] == list(range(1, 7)) and {t for _, _, t in seen} == {6}
+    assert [s for s, _, _ in seen].count("failed") == 1
+    assert sorted(calls(out)) == sorted({p.key for p in small_study().points()})  # 6 designs, each once
+    rows = table.rows
+    assert len(rows) == 7
+    failed = [r for r in rows if r["status"] == "failed"]
+    assert len(failed) == 1 and failed[0]["stimulus.temperature"] == 285.0
+    assert failed[0]["error"] == "RuntimeError: solver exploded (on purpose)"
+    assert failed[0]["bending_angle_deg"] is None and failed[0]["converged"] is None
+    record = json.loads((out / failed[0]["point_dir"] / "point.json").read_text())
+    assert record["status"] == "failed" and record["metrics"] is None
+    assert "solver exploded" in (out / failed[0]["point_dir"] / "error.txt").read_text()
+    ok = [r for r in rows if r["status"] == "ok"]
+    assert [r["bending_angle_deg"] for r in ok] == [25.0, 20.0, 10.0, 5.0, 25.0, 25.0]
+    assert (out / "study.toml").is_file() and (out / "results.csv").is_file() and (out / "results.parquet").is_file()
+
+
+def test_interrupted_then_resumed_equals_uninterrupted(scheduler, tmp_path):
+    """Ctrl-C after two points (a local cluster of one worker, closed on the interrupt), then a
+    rerun: only the failed and the unfinished points run, and the table is byte-identical to that
+    of an uninterrupted run in a fresh folder."""
+    study, out = small_study(), tmp_path / "resumed"
+
+    def interrupt(outcome, done, total):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(study, out, workers=1, point_fn=cheap_slow, on_point=interrupt)
+    assert not (out / "results.csv").exists()
+    keys = list(dict.fromkeys(p.key for p in study.points()))
+    statuses = {}
+    for key in keys:
+        f = out / "points" / key / "point.json"
+        statuses[key] = json.loads(f.read_text())["status"] if f.exists() else None
+    finished_ok = {k for k, s in statuses.items() if s == "ok"}
+    assert 1 <= len(finished_ok) < len(keys), statuses
+    # a point killed midway leaves files but no point.json: it is unfinished and will be cleared
+    unfinished = next(k for k in keys if statuses[k] is None)
+    (out / "points" / unfinished).mkdir(parents=True, exist_ok=True)
+    (out / "points" / unfinished / "stale.txt").write_text("left by a kill\n")
+    before = len(calls(out))
+
+    seen = []
+    run_sweep(study, out, scheduler=scheduler, point_fn=cheap, on_point=lambda o, d, t: seen.append(o.cached))
+    rerun = calls(out)[before:]
+    assert sorted(rerun) == sorted(set(keys) - finished_ok)  # failed and unfinished ones, each once
+    assert seen == [True] * len(finished_ok) + [False] * (len(keys) - len(finished_ok))  # cached first
+    assert not (out / "points" / unfinished / "stale.txt").exists()
+
+    fresh = tmp_path / "fresh"
+    run_sweep(study, fresh, scheduler=scheduler, point_fn=cheap)
+    assert (out / "results.csv").read_bytes() == (fresh / "results.csv").read_bytes()
+    assert pq.read_table(out / "results.parquet").equals(pq.read_table(fresh / "results.parquet"))
+    assert (out / "study.toml").read_bytes() == (fresh / "study.toml").read_bytes()
+
+
+def test_finished_points_are_loaded_not_run(scheduler, tmp_path):
+    out = tmp_path / "out"
+    first = run_sweep(small_study(), out, scheduler=scheduler, point_fn=cheap_not_converged_295)
+    n = len(calls(out))
+    t0 = time.perf_counter()
+    seen = []
+    # no scheduler given: nothing to run, so no local cluster is started either
+    again = run_sweep(small_study(), out, point_fn=cheap, on_point=lambda o, d, t: seen.append((o.cached, o.status)))
+    assert time.perf_counter() - t0 < 2.0
+    assert len(calls(out)) == n  # the not-converged point is a result: kept, not rerun
+    assert all(c for c, _ in seen) and sorted(s for _, s in seen).count("not_converged") == 1
+    assert again.to_csv() == first.to_csv()
+    row = next(r for r in again.rows if r["stimulus.temperature"] == 295.0)
+    assert row["status"] == "not_converged" and row["converged"] is False
+    assert row["error"] == "the load step fell below ds_min at s = 0.6"
+    # with every point cached a scheduler is not needed: an unreachable one is not contacted
+    assert run_sweep(small_study(), out, scheduler="tcp://127.0.0.1:1", point_fn=cheap).to_csv() == first.to_csv()
+
+
+def test_csv_and_parquet_agree_typed_without_nan(scheduler, tmp_path):
+    out = tmp_path / "out"
+    table = run_sweep(small_study(), out, scheduler=scheduler, point_fn=cheap_failing_285)
+    assert table.columns[:5] == ["sweep", "point", "key", "stimulus.temperature", "particle_layers"]
+    assert table.columns[-4:] == ["wall_time_s", "status", "error", "point_dir"]
+    # every row is complete: the temperature rows carry particle_layers, the layer rows the temperature
+    assert all(r["particle_layers"] is not None and r["stimulus.temperature"] is not None for r in table.rows)
+    back = SweepTable.read(out)
+    assert back.columns == table.columns and back.rows == table.rows
+    assert back.select("layers").column("particle_layers") == [1, 2]
+    arrow = pq.read_table(out / "results.parquet")
+    types = {f.name: str(f.type) for f in arrow.schema}
+    assert types["point"] == "int64" and types["particle_layers"] == "int64" and types["load_steps"] == "int64"
+    assert types["stimulus.temperature"] == "double" and types["bending_angle_deg"] == "double"
+    assert types["converged"] == "bool" and types["status"] == "string" and types["error"] == "string"
+    assert arrow.to_pylist() == table.rows
+    for row in arrow.to_pylist():
+        assert row["max_curvature_per_mm"] is None and row["curling_index"] is None  # NaN and None -> null
+        assert not any(isinstance(v, float) and math.isnan(v) for v in row.values())
+    text = (out / "results.csv").read_text()
+    assert "nan" not in text.lower() and ",true," in text
+
+
+def test_bad_arguments_write_nothing(tmp_path):
+    out = tmp_path / "out"
+    with pytest.raises(ValueError, match="workers: must be an integer >= 1"):
+        run_sweep(small_study(), out, workers=0, point_fn=cheap)
+    with pytest.raises(SchedulerError, match="not a scheduler address"):
+        run_sweep(small_study(), out, scheduler="nowhere", point_fn=cheap)
+    three_d = study_from_dict({"sweep": [{"name": "dim", "vary": {"dimension": [2, 3]}}]})
+    with pytest.raises(StudyError, match="sweep 'dim' point 1: dimension: only 2"):
+        run_sweep(three_d, out, point_fn=cheap)
+    assert not out.exists()
+
+
+# -------------------------------------------------------------------- a real simulation
+
+
+def test_real_point_through_a_dask_scheduler(scheduler, tmp_path):
+    """One tiny real actuator (1 particle layer, mesh 4 mm, 295 K) run by a worker of the scheduler:
+    run_point's files, the final VTU, and the table's metrics from metrics.json."""
+    import meshio
+
+    study = study_from_dict({"name": "tiny", "design": {"particle_layers": 1, "mesh": {"size": 4.0}},
+                             "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [295]}}]})
+    t0 = time.perf_counter()
+    table = run_sweep(study, tmp_path / "out", scheduler=scheduler)
+    print(f"one tiny real point through the scheduler: {time.perf_counter() - t0:.1f} s")
+    (row,) = table.rows
+    assert row["status"] == "ok" and row["error"] is None and row["converged"] is True, row
+    folder = tmp_path / "out" / row["point_dir"]
+    metrics = json.loads((folder / "metrics.json").read_text())
+    assert row["bending_angle_deg"] == metrics["bending_angle_deg"] > 10.0  # bends toward the layer
+    assert row["wall_time_s"] == metrics["wall_time_s"]
+    for name in ("design.toml", "history.csv", "centreline.csv", "final.png", "final.vtu", "point.json"):
+        assert (folder / name).is_file(), name
+    assert not (folder / "steps").exists()
+    vtu = meshio.read(folder / "final.vtu")
+    assert vtu.points.shape[1] == 3 and abs(vtu.points[:, 1]).max() == 0.0
+    assert sorted(set(vtu.cell_data["body_id"][0].tolist())) == [0, 1, 2]
+
+
+# -------------------------------------------------------------------- the command line
+
+
+def _cli(capsys, *args):
+    rc = main(list(args))
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+@pytest.mark.parametrize(
+    "args, needles",
+    [
+        (["--workers", "0"], ["--workers", ">= 1"]),
+        (["--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], ["--workers", "--scheduler"]),
+        (["--scheduler", "nowhere"], ["--scheduler", "nowhere", "not a scheduler address"]),
+    ],
+)
+def test_cli_bad_options_exit_2_and_write_nothing(capsys, tmp_path, args, needles):
+    write_study(tmp_path / "study.toml", small_study())
+    rc, out, err = _cli(capsys, "sweep", str(tmp_path / "study.toml"), "-o", str(tmp_path / "out"), *args)
+    assert rc == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1, err
+    for needle in needles:
+        assert needle in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_cli_bad_study_exits_2_naming_sweep_and_field(capsys, tmp_path):
+    path = tmp_path / "study.toml"
+    path.write_text('[[sweep]]\nname = "layers"\n[sweep.vary]\nparticle_layers = [1, 0]\n')
+    rc, _, err = _cli(capsys, "sweep", str(path), "-o", str(tmp_path / "out"))
+    assert rc == 2 and "Traceback" not in err
+    assert "sweep 'layers' point 1" in err and "particle_layers" in err and "[1, 100]" in err
+    assert not (tmp_path / "out").exists()
+    rc, _, err = _cli(capsys, "sweep", str(tmp_path / "missing.toml"), "-o", str(tmp_path / "out"))
+    assert rc == 2 and "missing.toml" in err
+
+
+def test_cli_summary_and_exit_status_over_cached_points(capsys, scheduler, tmp_path):
+    """The CLI's progress, summary and exit status, on a folder whose points are all cached (the
+    real simulation behind `hydrojam sweep` runs in the README's example)."""
+    path = tmp_path / "study.toml"
+    write_study(path, small_study())
+    out = tmp_path / ("long-folder-name-" * 5) / "out"  # a path longer than the console is wide
+    run_sweep(small_study(), out, scheduler=scheduler, point_fn=cheap_not_converged_295)
+    rc, _, err = _cli(capsys, "sweep", str(path), "-o", str(out))
+    assert rc == 1  # one point stopped early
+    assert "5 ok, 1 not converged, 0 failed; 6 cached, 0 computed" in " ".join(err.split())
+    assert f"table: {out / 'results.csv'}" in err  # paths are printed whole, never wrapped
+
+    ok_study = study_from_dict({"design": {"particle_layers": 1, "mesh": {"size": 4.0}},
+                                "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [275, 280]}}]})
+    write_study(path, ok_study)
+    run_sweep(ok_study, tmp_path / "ok", scheduler=scheduler, point_fn=cheap)
+    rc, out, err = _cli(capsys, "sweep", str(path), "-o", str(tmp_path / "ok"), "--quiet")
+    assert rc == 0 and out == "" and err == ""
+    assert SweepTable.read(tmp_path / "ok").column("bending_angle_deg") == [25.0, 20.0]
+
+
+def test_table_column_types_follow_the_design_fields():
+    """A varied field's column has its Design field's type: Literal[2, 3] -> int, an optional
+    float -> float, a Literal of strings -> str (the Parquet column type follows)."""
+    from hydrojam.study.sweep import _field_type
+
+    assert _field_type("dimension") is int
+    assert _field_type("cavity_width") is float
+    assert _field_type("stimulus.path") is str
+    assert _field_type("particle_layers") is int and _field_type("mesh.size") is float
