@@ -1,0 +1,130 @@
+"""The package's shape (DESIGN.md section 9): data flows one way through the layers, no import
+cycles, light imports stay light, and no module changes a user's matplotlib backend.
+
+Layers, lowest first: the shared helpers (``_io``, ``_validation``) < ``materials`` < ``fem`` <
+``actuator`` < ``study`` < ``paper`` < ``cli``. A module may import its own layer and the ones
+below, never one above. Imports inside functions count too: a lazy import is still a dependency.
+"""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "hydrojam"
+LAYERS = ["_io", "_validation", "materials", "fem", "actuator", "study", "paper", "cli"]
+RANK = {"_io": 0, "_validation": 0, "materials": 1, "fem": 2, "actuator": 3, "study": 4, "paper": 5, "cli": 6}
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(SRC.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _modules() -> dict[str, Path]:
+    return {_module_name(p): p for p in sorted(SRC.rglob("*.py"))}
+
+
+def _imports(name: str, path: Path) -> set[str]:
+    """hydrojam modules that ``name`` imports anywhere in its source (relative ones resolved)."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names if a.name.startswith("hydrojam"))
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - node.level + 1]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            if not mod.startswith("hydrojam"):
+                continue
+            found.add(mod)
+            found.update(f"{mod}.{a.name}" for a in node.names)  # `from pkg import module`
+    modules = _modules()
+    return {m for m in found if m in modules and m != name}
+
+
+def _layer(module: str) -> str | None:
+    parts = module.split(".")
+    return parts[1].removesuffix(".py") if len(parts) > 1 else None  # None: the package itself
+
+
+def test_every_module_belongs_to_a_layer():
+    for name in _modules():
+        layer = _layer(name)
+        assert layer is None or layer in RANK, f"{name}: not in a known layer {LAYERS}; add it to the layer list"
+
+
+def test_no_module_imports_a_higher_layer():
+    wrong = []
+    for name, path in _modules().items():
+        layer = _layer(name)
+        if layer is None:  # hydrojam/__init__.py names the public API of every layer
+            continue
+        for dep in _imports(name, path):
+            dep_layer = _layer(dep)
+            if dep_layer is not None and RANK[dep_layer] > RANK[layer]:
+                wrong.append(f"{name} ({layer}) imports {dep} ({dep_layer})")
+    assert not wrong, "imports against the data flow:\n" + "\n".join(wrong)
+
+
+def test_no_import_cycles():
+    modules = _modules()
+    graph = {name: _imports(name, path) - {"hydrojam"} for name, path in modules.items()}
+    # a package's __init__ importing its own submodules is not a cycle of concepts
+    for name in graph:
+        graph[name] = {d for d in graph[name] if not d.startswith(name + ".")}
+    state: dict[str, int] = {}
+    cycles: list[list[str]] = []
+
+    def visit(node: str, stack: list[str]) -> None:
+        state[node] = 1
+        stack.append(node)
+        for dep in sorted(graph.get(node, ())):
+            if state.get(dep) == 1:
+                cycles.append(stack[stack.index(dep):] + [dep])
+            elif dep not in state:
+                visit(dep, stack)
+        stack.pop()
+        state[node] = 2
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [])
+    assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_no_module_sets_the_matplotlib_backend_or_uses_pyplot():
+    """A notebook user's backend must not change: figures are drawn on matplotlib.figure.Figure."""
+    wrong = []
+    for name, path in _modules().items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Attribute) and node.attr == "use" and isinstance(node.value, ast.Name) \
+                    and node.value.id == "matplotlib":
+                wrong.append(f"{name}: matplotlib.use")
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                names = [a.name for a in node.names] + [getattr(node, "module", None) or ""]
+                if any(n.startswith("matplotlib.pyplot") for n in names) or (
+                        getattr(node, "module", None) == "matplotlib" and any(a.name == "pyplot" for a in node.names)):
+                    wrong.append(f"{name}: imports pyplot")
+    assert not wrong, "\n".join(wrong)
+
+
+@pytest.mark.parametrize("code", [
+    "import hydrojam",
+    "from hydrojam import Design, Hydrogel, free_swelling",
+    "from hydrojam.cli import main; main(['swell', '--temperatures', '275', '--json'])",
+])
+def test_light_entry_points_do_not_load_gmsh_or_ipctk(code):
+    """``import hydrojam`` and ``hydrojam swell`` need neither gmsh (GL libraries) nor ipctk."""
+    probe = f"import sys, contextlib, io\nwith contextlib.redirect_stdout(io.StringIO()):\n    {code}\n" \
+            "print(sorted(m for m in ('gmsh', 'ipctk', 'pypardiso', 'dask', 'matplotlib.pyplot') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]", out.stdout + out.stderr
