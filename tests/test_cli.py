@@ -1,6 +1,9 @@
 """The `hydrojam` command line: outputs, and one-line errors with exit status 2."""
 
+import errno
 import json
+import os
+import stat
 import subprocess
 import sys
 from pathlib import Path
@@ -187,3 +190,136 @@ def test_run_that_stops_early_exits_1_with_its_last_state_written(tmp_path, caps
     assert rc == 1 and "stopped early" in err
     m = json.loads((out / "metrics.json").read_text())
     assert m["converged"] is False and m["s_reached"] == 0.0
+
+
+# ---------------------------------------------------------------------------------------------
+# defects found by trying the command as a new user would (issue 11, section 6)
+
+
+def _one_error_line(rc, out, err, *needles):
+    assert rc == 2, (rc, err)
+    assert "Traceback" not in err and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("hydrojam: error: "), err
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+
+
+def _listing(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+def test_file_system_errors_are_one_line_exit_2_and_write_nothing(tmp_path, capsys, monkeypatch):
+    """An output under a regular file, in an unwritable place or on a full disk: one line naming
+    the path, exit status 2, no traceback, and nothing written (not even a temporary)."""
+    monkeypatch.chdir(tmp_path)
+    Path("afile").write_text("a regular file\n")
+    run(capsys, "init", "d.toml", "--set", "particle_layers=1")
+    Path("s.toml").write_text('[design]\nparticle_layers = 1\n[[sweep]]\nname = "T"\n'
+                              '[sweep.vary]\n"stimulus.temperature" = [295]\n')
+    before = _listing(tmp_path)
+    _one_error_line(*run(capsys, "run", "d.toml", "-o", "afile/sub", "--quiet"), "afile/sub")
+    _one_error_line(*run(capsys, "init", "afile/d.toml"), "afile")
+    _one_error_line(*run(capsys, "swell", "--temperatures", "280", "--plot", "afile/x.png"), "afile")
+    _one_error_line(*run(capsys, "sweep", "s.toml", "-o", "afile/sub"), "afile/sub")
+    if Path("/proc/self").is_dir():  # Linux: a folder where no file can be created, even by root
+        _one_error_line(*run(capsys, "init", "/proc/nope.toml"), "/proc/nope.toml")
+    assert _listing(tmp_path) == before
+
+    def disk_full(self, *args, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(Path, "write_text", disk_full)
+    _one_error_line(*run(capsys, "init", "new.toml"), "new.toml", os.strerror(errno.ENOSPC))
+    assert _listing(tmp_path) == before
+
+
+def test_abort_is_reported_not_a_traceback(capsys, monkeypatch):
+    import typer
+
+    import hydrojam.cli as cli
+
+    def abort(*args, **kwargs):
+        raise typer.Abort()
+
+    monkeypatch.setattr(cli, "_temperatures", abort)
+    rc, out, err = run(capsys, "swell")
+    assert rc == 130 and err.strip() == "hydrojam: aborted" and out == ""
+
+
+@pytest.mark.parametrize("umask", [0o027, 0o002])
+def test_output_files_get_the_users_permissions(tmp_path, capsys, umask):
+    """Files are created 0666 less the umask (as any program's), not the temporary file's 0600."""
+    old = os.umask(umask)
+    try:
+        rc, _, _ = run(capsys, "init", str(tmp_path / "d.toml"))
+        assert rc == 0
+        rc, _, _ = run(capsys, "swell", "--temperatures", "280,300", "--plot", str(tmp_path / "c.png"))
+        assert rc == 0
+    finally:
+        os.umask(old)
+    for name in ("d.toml", "c.png"):
+        assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o666 & ~umask, name
+
+
+def test_swell_refuses_too_many_temperatures_at_once(capsys):
+    import time
+
+    from hydrojam.cli import MAX_TEMPERATURES
+
+    t0 = time.perf_counter()
+    _one_error_line(*run(capsys, "swell", "--t-step", "1e-6"), "--t-step", "--t-min", "--t-max",
+                    f"at most {MAX_TEMPERATURES}")
+    _one_error_line(*run(capsys, "swell", "--t-step", "5e-324"), "--t-step", f"at most {MAX_TEMPERATURES}")
+    many = ",".join(["280"] * (MAX_TEMPERATURES + 1))
+    _one_error_line(*run(capsys, "swell", "--temperatures", many), "--temperatures", f"at most {MAX_TEMPERATURES}")
+    assert time.perf_counter() - t0 < 10.0  # refused before any work
+    rc, out, _ = run(capsys, "swell", "--t-min", "280", "--t-max", "281", "--t-step", "0.5", "--csv")
+    assert rc == 0 and len(out.strip().splitlines()) == 4
+
+
+def test_version_help_alias_and_bare_command(capsys):
+    from hydrojam import __version__
+
+    rc, out, err = run(capsys, "--version")
+    assert rc == 0 and out.strip() == f"hydrojam {__version__}" and err == ""
+    for args in (["-h"], ["--help"], []):
+        rc, out, err = run(capsys, *args)
+        assert rc == 0 and "Usage: hydrojam" in out and "swell" in out and err == "", args
+    for command in ("swell", "init", "run", "sweep", "reproduce"):
+        rc, out, _ = run(capsys, command, "-h")
+        assert rc == 0 and f"Usage: hydrojam {command}" in out, command
+
+
+def test_installed_command_version_and_bare_help():
+    exe = Path(sys.executable).with_name("hydrojam")
+    res = subprocess.run([str(exe)], capture_output=True, text=True)
+    assert res.returncode == 0 and "Usage: hydrojam" in res.stdout and res.stderr == ""
+    res = subprocess.run([str(exe), "--version"], capture_output=True, text=True)
+    assert res.returncode == 0 and res.stdout.startswith("hydrojam ")
+
+
+@pytest.mark.parametrize(
+    "args, option",
+    [
+        (["--lambda0", "nan"], "--lambda0"),
+        (["--nnu", "inf"], "--nnu"),
+        (["--t0", "nan"], "--t0"),
+        (["--mu", "nan"], "--mu"),
+        (["--t-step", "nan"], "--t-step"),
+        (["--t-max", "inf"], "--t-max"),
+        (["--temperatures", "280,nan"], "--temperatures"),
+    ],
+)
+def test_non_finite_options_have_the_design_files_wording(capsys, args, option):
+    _one_error_line(*run(capsys, "swell", *args), f"{option}: must be a finite number")
+
+
+@pytest.mark.parametrize("text, field", [("[hydrogel]\nlambda0 = nan\n", "hydrogel.lambda0"),
+                                         ("[hydrogel]\nA0 = inf\n", "hydrogel.A0"),
+                                         ("[mesh]\nsize = nan\n", "mesh.size")])
+def test_non_finite_design_values_have_the_same_wording(tmp_path, capsys, text, field):
+    design = tmp_path / "bad.toml"
+    design.write_text(text)
+    _one_error_line(*run(capsys, "run", str(design), "-o", str(tmp_path / "out")), f"{field}: must be a finite number")
+    assert not (tmp_path / "out").exists()

@@ -3,25 +3,73 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 import tomllib
 from pathlib import Path
 
 
+def make_folder(path: str | os.PathLike) -> Path:
+    """Create the folder ``path`` and its parents where missing; NotADirectoryError naming the
+    path when it (or a parent) exists as something else."""
+    path = Path(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except FileExistsError as err:
+        raise NotADirectoryError(errno.ENOTDIR, "exists and is not a folder", err.filename or os.fspath(path)) from None
+    return path
+
+
+def _umask() -> int:
+    """The process's umask, read without changing it where the system tells (Linux: a change,
+    even restored at once, would race with other threads creating files)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def file_mode() -> int:
+    """The mode a new file gets from ``open(path, "w")``: 0o666 less the umask."""
+    return 0o666 & ~_umask()
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike):
-    """Yield a temporary path beside ``path``; on success it replaces ``path`` in one rename."""
+    """Yield a temporary path beside ``path``; on success it replaces ``path`` in one rename.
+
+    The file gets the user's usual permissions (:func:`file_mode`), not the temporary file's
+    0600. An OSError (not a folder, no permission, no space, read-only) names ``path``, not the
+    temporary file; nothing is left behind.
+    """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
+    tmp = None
     try:
+        make_folder(path.parent)
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+        except OSError as err:
+            err.filename = os.fspath(path)
+            raise
+        os.close(fd)
         yield Path(tmp)
+        os.chmod(tmp, file_mode())  # after the writer: some replace the file they are given
         os.replace(tmp, path)
+    except OSError as err:
+        if err.filename is None or (tmp is not None and os.fspath(err.filename) == tmp):
+            err.filename = os.fspath(path)
+        raise
     finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
+        if tmp is not None:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 import typing
 from collections.abc import Sequence
@@ -91,6 +92,24 @@ def field_unit(model: type[BaseModel], name: str | Sequence) -> str:
     return "" if unit == "-" else unit
 
 
+def is_non_finite(value) -> bool:
+    """True for a float that is nan or +-inf (the input every numeric field refuses alike)."""
+    return isinstance(value, float) and not math.isfinite(value)
+
+
+def non_finite_message(label: str, value, allowed: str | None = None, unit: str = "") -> str:
+    """The one wording for a non-finite number, for design files and CLI options alike:
+    '{label}: must be a finite number; allowed range {allowed} {unit} (got nan)'."""
+    where = f"; allowed range {allowed}{' ' + unit if unit else ''}" if allowed else ""
+    return f"{label}: must be a finite number{where} (got {_short(value)})"
+
+
+# pydantic error kinds that judge a value's type or size: a non-finite input gets the finite wording
+_NUMERIC_KINDS = frozenset({"finite_number", "greater_than", "greater_than_equal", "less_than", "less_than_equal",
+                            "float_type", "float_parsing", "int_type", "int_parsing", "int_from_float",
+                            "multiple_of"})
+
+
 def describe_error(err: ValidationError, model: type[BaseModel], names: dict[str, str] | None = None) -> str:
     """The first problem of a pydantic ValidationError as one line naming the field (or its alias
     in ``names``, e.g. a CLI option) and its allowed range."""
@@ -104,6 +123,8 @@ def describe_error(err: ValidationError, model: type[BaseModel], names: dict[str
         return f"{label}: unknown key (allowed: {allowed})"
     rng = field_range(model, e["loc"]) if e["loc"] else None
     got = e.get("input")
+    if e["type"] in _NUMERIC_KINDS and is_non_finite(got):
+        return non_finite_message(label, got, rng, field_unit(model, e["loc"]))
     msg = f"{label}: {e['msg'].lower()}"
     if rng:
         msg += f"; allowed range {rng}"
@@ -153,7 +174,9 @@ def explain_error(err: ValidationError, model: type[BaseModel]) -> str:
         rng = field_range(model, parts) if parts else None
         unit = field_unit(model, parts) if parts else ""
         where = f"; allowed range {rng}{' ' + unit if unit else ''}" if rng else ""
-        if kind in _BOUND:
+        if kind in _NUMERIC_KINDS and is_non_finite(got):
+            msg = non_finite_message(path, got, rng, unit)
+        elif kind in _BOUND:
             bound = next(iter((e.get("ctx") or {}).values()), "?")
             bound = f"{bound:g}" if isinstance(bound, float) else bound
             msg = f"{path}: must be {_BOUND[kind]} {bound}{where} (got {_short(got)})"
@@ -162,7 +185,7 @@ def explain_error(err: ValidationError, model: type[BaseModel]) -> str:
         elif kind == "literal_error":
             msg = f"{path}: expected {e['ctx']['expected']}, got {_short(got)}"
         elif kind == "finite_number":
-            msg = f"{path}: must be a finite number{where} (got {_short(got)})"
+            msg = non_finite_message(path, got, rng, unit)
         elif kind == "missing":
             msg = f"{path}: required key missing"
         else:

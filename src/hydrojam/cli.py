@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import csv
 import io
+import errno
 import json
 import math
+import os
 import sys
 from pathlib import Path
 from typing import Optional
@@ -17,22 +19,27 @@ from pydantic import ValidationError
 from rich.console import Console
 from rich.table import Table
 
-from hydrojam._io import write_text_atomic
-from hydrojam._validation import describe_error
+from hydrojam._io import make_folder
+from hydrojam._validation import describe_error, is_non_finite, non_finite_message
 from hydrojam.materials.energies import HydrogelParams
 from hydrojam.materials.swelling import swelling_curve
 
-try:  # typer >= 0.2x vendors its own click
+try:  # typer >= 0.2x vendors its own click; Abort and Exit are typer's own in both cases
     from typer._click import exceptions as _click_exc
 except ImportError:  # pragma: no cover - older typer on top of click
     from click import exceptions as _click_exc
 
 T_MIN_WATER, T_MAX_WATER = 273.15, 373.15
 
+#: most temperatures `hydrojam swell` computes in one call (a range with a tiny --t-step would
+#: otherwise run for minutes and fill the memory before printing anything)
+MAX_TEMPERATURES = 10_000
+
 app = typer.Typer(
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
+    context_settings={"help_option_names": ["-h", "--help"]},
     help="hydrojam: simulate active particle jamming actuators (PNIPAM hydrogel particles in an elastomer chamber).",
 )
 
@@ -41,8 +48,19 @@ class InputError(Exception):
     """Invalid user input: reported as one line, exit status 2."""
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        from hydrojam import __version__
+
+        print(f"hydrojam {__version__}")
+        raise typer.Exit()
+
+
 @app.callback()
-def _root() -> None:
+def _root(
+    version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
+                                 help="Print hydrojam's version and exit."),
+) -> None:
     """Units: mm, MPa, K; chemical potential mu in k_B T."""
 
 
@@ -59,7 +77,14 @@ def _temperatures(temperatures: str | None, t_min, t_max, t_step) -> list[float]
                     f"--temperatures: {tok.strip()!r} is not a number; give comma-separated temperatures in K "
                     f"within [{T_MIN_WATER}, {T_MAX_WATER}]"
                 ) from None
+        if len(Ts) > MAX_TEMPERATURES:
+            raise InputError(f"--temperatures: {len(Ts)} temperatures; at most {MAX_TEMPERATURES} in one call")
     else:
+        water = f"[{T_MIN_WATER}, {T_MAX_WATER}]"
+        for option, value, allowed in (("--t-min", t_min, water), ("--t-max", t_max, water),
+                                       ("--t-step", t_step, "(0, inf)")):
+            if is_non_finite(value):
+                raise InputError(non_finite_message(option, value, allowed, "K"))
         lo = 275.0 if t_min is None else t_min
         hi = 315.0 if t_max is None else t_max
         step = 5.0 if t_step is None else t_step
@@ -67,8 +92,17 @@ def _temperatures(temperatures: str | None, t_min, t_max, t_step) -> list[float]
             raise InputError(f"--t-step: must be > 0 K (got {step})")
         if hi < lo:
             raise InputError(f"--t-max: must be >= --t-min ({lo} K) (got {hi})")
-        Ts = list(lo + step * np.arange(int(math.floor((hi - lo) / step + 1e-9)) + 1))
+        steps = (hi - lo) / step + 1e-9  # a float: a tiny step must not overflow an int
+        if steps + 1 > MAX_TEMPERATURES:
+            count = f"{math.floor(steps) + 1}" if steps < 1e15 else "over 1e15"
+            raise InputError(
+                f"--t-step: {step:g} K from --t-min {lo:g} K to --t-max {hi:g} K gives {count} temperatures; "
+                f"at most {MAX_TEMPERATURES} in one call (use a larger --t-step or a narrower range)"
+            )
+        Ts = list(lo + step * np.arange(math.floor(steps) + 1))
     for T in Ts:
+        if is_non_finite(T):
+            raise InputError(non_finite_message("--temperatures", T, f"[{T_MIN_WATER}, {T_MAX_WATER}]", "K"))
         if not (T_MIN_WATER <= T <= T_MAX_WATER):
             raise InputError(
                 f"temperature {T} K is outside liquid water's range [{T_MIN_WATER}, {T_MAX_WATER}] K "
@@ -98,6 +132,8 @@ def swell(
         params = HydrogelParams(n=nnu, lambda0=lambda0, T0=t0)
     except ValidationError as err:
         raise InputError(describe_error(err, HydrogelParams, {"n": "--nnu", "lambda0": "--lambda0", "T0": "--t0"})) from None
+    if is_non_finite(mu):
+        raise InputError(non_finite_message("--mu", mu, "(-inf, 0]", "k_B T"))
     if not mu <= 0:
         raise InputError(f"--mu: must be <= 0 k_B T (pure water is 0; above it a gel swells without bound) (got {mu})")
     if plot is not None and plot.suffix.lower() != ".png":
@@ -200,6 +236,7 @@ def run_design(
     design = _design_or_exit(design_file, overrides)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out: {out} exists and is not a folder")
+    make_folder(out)  # before meshing: a folder that cannot be made is refused at once
     console = Console(stderr=True)
     model = build_model(design)
     writer = ResultWriter(out, model, vtu=vtu)
@@ -223,20 +260,32 @@ def run_design(
         result = simulate(model, on_step=on_step)
     metrics = writer.finish(result)
     if not quiet:
-        table = Table(title=f"hydrojam run: {design_file.name} -> {out}")
-        table.add_column("metric")
-        table.add_column("value", justify="right")
-        for key in ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index", "packing_fraction",
-                    "contacts_per_particle", "converged", "stabilization_released", "newton_iterations",
-                    "wall_time_s"):
-            v = metrics.get(key)
-            table.add_row(key, f"{v:.4g}" if isinstance(v, float) else str(v))
-        console.print(table)
+        console.print(_run_summary(f"hydrojam run: {design_file.name} -> {out}", metrics))
     if not result.converged:
         console.print(f"[red]hydrojam: the solver stopped early: {result.message}[/red]")
         raise typer.Exit(code=1)
     if not metrics.get("stabilization_released", True):
         console.print(f"[yellow]hydrojam: warning: {result.message}[/yellow]")
+
+
+#: the metrics of `hydrojam run`'s summary table, in its order (units and meanings from the registry)
+RUN_SUMMARY = ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index", "packing_fraction",
+               "contacts_per_particle", "converged", "stabilization_released", "newton_iterations", "wall_time_s")
+
+
+def _run_summary(title: str, metrics: dict) -> Table:
+    """The summary table of a run: metric, value, unit and meaning (:mod:`hydrojam.actuator.metrics`)."""
+    from hydrojam.actuator.metrics import metric
+
+    table = Table(title=title)
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    table.add_column("unit")
+    table.add_column("meaning")
+    for key in RUN_SUMMARY:
+        m, v = metric(key), metrics.get(key)
+        table.add_row(key, f"{v:.4g}" if isinstance(v, float) else str(v), m.unit, m.description)
+    return table
 
 
 def _point_label(outcome) -> str:
@@ -366,23 +415,54 @@ def reproduce(
                                                       on_point=on_point), out, quiet, report=True)
 
 
+#: errno values of file-system errors, reported as one line (exit status 2) rather than a traceback
+_FILE_SYSTEM_ERRORS = frozenset(
+    getattr(errno, name) for name in ("ENOTDIR", "EISDIR", "EEXIST", "ENOENT", "EACCES", "EPERM", "ENOSPC",
+                                      "EDQUOT", "EROFS", "ENAMETOOLONG", "ELOOP", "EFBIG", "EMFILE", "ENFILE",
+                                      "EXDEV", "EBUSY", "ETXTBSY")
+    if hasattr(errno, name)
+)
+
+
+def _file_system_error(err: OSError) -> str | None:
+    """One line for a file-system error, naming the path ("afile/sub: Not a directory"), or None
+    for another OSError (a bug, a network error: left to propagate)."""
+    if err.errno not in _FILE_SYSTEM_ERRORS and err.filename is None:
+        return None
+    what = err.strerror or str(err)
+    if err.filename is None:
+        return what
+    where = os.fspath(err.filename)
+    if err.filename2 is not None:
+        where += f" -> {os.fspath(err.filename2)}"
+    return f"{where}: {what}"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydrojam`` command; returns the exit status."""
     try:
         # without standalone mode click returns a typer.Exit's code instead of raising it
-        status = app(args=argv, standalone_mode=False)
+        status = app(args=argv, prog_name="hydrojam", standalone_mode=False)
     except InputError as err:
         print(f"hydrojam: error: {err}", file=sys.stderr)
         return 2
+    except _click_exc.NoArgsIsHelpError as err:  # a bare `hydrojam`: the help, not an error
+        print(err.format_message())
+        return 0
     except _click_exc.UsageError as err:
-        if err.format_message():  # empty when the help was printed for a bare `hydrojam`
-            print(f"hydrojam: error: {err.format_message()}", file=sys.stderr)
+        print(f"hydrojam: error: {err.format_message()}", file=sys.stderr)
         return 2
-    except _click_exc.Abort:
+    except typer.Abort:
         print("hydrojam: aborted", file=sys.stderr)
         return 130
-    except _click_exc.Exit as ex:
+    except typer.Exit as ex:
         return ex.exit_code
+    except OSError as err:
+        line = _file_system_error(err)
+        if line is None:
+            raise
+        print(f"hydrojam: error: {line}", file=sys.stderr)
+        return 2
     return status if isinstance(status, int) and not isinstance(status, bool) else 0
 
 

@@ -347,3 +347,43 @@ def test_shape_errors():
         centreline_profile(np.zeros((3, 3)), np.zeros((3, 3)))
     with pytest.raises(ValueError):
         centreline_profile(np.zeros((1, 2)), np.zeros((1, 2)))
+
+
+# ---------------------------------------------------------------------------------------------
+# the registry of metric names: the single definition every output derives from
+
+
+def test_registry_names_are_unique_and_typed():
+    from hydrojam.actuator.metrics import HISTORY_FIELDS, RUN_FIELDS, STATE_METRICS, metric, metric_names
+
+    names = [m.name for m in (*STATE_METRICS, *RUN_FIELDS)]
+    assert len(names) == len(set(names)) and metric_names() == names
+    history = [m.name for m in HISTORY_FIELDS]
+    assert len(history) == len(set(history))
+    for m in (*STATE_METRICS, *RUN_FIELDS, *HISTORY_FIELDS):
+        assert m.type in (bool, int, float, str) and m.description and m.kind in ("state", "run", "step")
+    assert all(m.kind == "state" for m in STATE_METRICS) and all(m.kind == "run" for m in RUN_FIELDS)
+    assert metric("bending_angle_deg").unit == "deg" and metric("tip_dx_mm").label == "tip_dx_mm [mm]"
+    with pytest.raises(KeyError, match="no such metric"):
+        metric("bending_angle")
+
+
+def test_measure_and_run_metrics_have_exactly_the_registry_keys():
+    """model.measure returns the state metrics and SimulationResult.metrics the state metrics
+    then the run fields, each in the registry's order: nothing restates a name the registry lacks."""
+    from hydrojam.actuator.design import apply_overrides, default_design
+    from hydrojam.actuator.metrics import RUN_FIELDS, STATE_METRICS
+    from hydrojam.actuator.model import build_model, measure
+    from hydrojam.actuator.simulate import SimulationResult, StepState
+
+    model = build_model(apply_overrides(default_design(), ["particle_layers=1", "mesh.size=4"]))
+    X = model.mesh.points
+    measured = measure(model, X)
+    assert list(measured) == [m.name for m in STATE_METRICS]
+    mu, T = model.stimulus(0.0)
+    state = StepState(0, 0.0, mu, T, X.copy(), measured, 0, 0.0)
+    result = SimulationResult(model, [state], True, "converged", 0.0, 0, 0, {"total": 0.0}, {})
+    assert list(result.metrics) == [m.name for m in (*STATE_METRICS, *RUN_FIELDS)]
+    for m in (*STATE_METRICS, *RUN_FIELDS):
+        value = result.metrics[m.name]
+        assert value is None or isinstance(value, m.type) or (m.type is float and type(value) is int), m.name

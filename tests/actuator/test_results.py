@@ -320,3 +320,36 @@ def test_no_nan_is_ever_written(model, X, tmp_path):
     assert metrics["curling_index"] is None and metrics["max_curvature_per_mm"] is None
     assert metrics["packing_fraction"] is None and metrics["wall_time_s"] is None
     assert metrics["timings_s"]["total"] is None and metrics["converged"] is False
+
+
+def test_result_files_get_the_users_permissions(model, X, tmp_path):
+    """Every file of a run is created 0666 less the umask, as any program's (not 0600)."""
+    import os
+    import stat
+
+    old = os.umask(0o027)
+    try:
+        w = ResultWriter(tmp_path, model)
+        w.start()
+        w.step(make_state(model, 0, 0.0, X))
+        w.finish(result_of(model, [make_state(model, 0, 0.0, X)]))
+    finally:
+        os.umask(old)
+    files = [p for p in tmp_path.rglob("*") if p.is_file()]
+    assert {p.name for p in files} >= {"design.toml", "history.csv", "step_0000.vtu", "results.pvd",
+                                       "centreline.csv", "metrics.json", "final.png"}
+    for p in files:
+        assert stat.S_IMODE(p.stat().st_mode) == 0o640, p
+
+
+def test_metrics_json_keys_follow_the_registry(model, X, tmp_path):
+    """metrics.json: the state metrics, then the run fields, in the registry's order, then timings_s."""
+    from hydrojam.actuator.metrics import RUN_FIELDS, STATE_METRICS
+
+    w = ResultWriter(tmp_path, model, vtu=False)
+    w.start()
+    written = w.finish(result_of(model, [make_state(model, 0, 0.0, X)]), plot=False)
+    keys = list(json.loads((tmp_path / "metrics.json").read_text()))
+    assert keys == list(written) == [m.name for m in (*STATE_METRICS, *RUN_FIELDS)] + ["timings_s"]
+    assert HISTORY_COLUMNS[:4] == ["step", "s", "mu_kT", "temperature_K"]
+    assert HISTORY_COLUMNS[4:-2] == [m.name for m in STATE_METRICS]

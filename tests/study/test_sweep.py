@@ -301,3 +301,71 @@ def test_table_column_types_follow_the_design_fields():
     assert _field_type("cavity_width") is float
     assert _field_type("stimulus.path") is str
     assert _field_type("particle_layers") is int and _field_type("mesh.size") is float
+
+
+# -------------------------------------------------------------------- another study's folder, reruns
+
+
+def test_a_folder_of_another_study_is_refused(scheduler, tmp_path, capsys):
+    """A sweep into a folder that holds another study's points (another name in OUT/study.toml)
+    is refused before anything is written; the same study resumes."""
+    out = tmp_path / "out"
+    run_sweep(small_study(), out, scheduler=scheduler, point_fn=cheap)
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    other = study_from_dict({"name": "other", "design": {"particle_layers": 1, "mesh": {"size": 4.0}},
+                             "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [300]}}]})
+    with pytest.raises(StudyError, match=r"holds the points of another study, 'small'"):
+        run_sweep(other, out, scheduler=scheduler, point_fn=cheap)
+    path = tmp_path / "other.toml"
+    write_study(path, other)
+    rc, stdout, err = _cli(capsys, "sweep", str(path), "-o", str(out))
+    assert rc == 2 and stdout == "" and "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and str(out) in lines[0] and "'small'" in lines[0], err
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    # the same study (same name), extended by a point: resumed, the old points reused
+    n = len(calls(out))
+    more = study_from_dict({"name": "small", "design": {"particle_layers": 1, "mesh": {"size": 4.0}},
+                            "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [275, 300]}}]})
+    table = run_sweep(more, out, scheduler=scheduler, point_fn=cheap)
+    assert len(calls(out)) == n + 1 and table.column("status") == ["ok", "ok"]
+
+
+def measured(design, point_dir):
+    """As :func:`cheap`, with a wall time measured, as a simulation's is: it differs run to run."""
+    t0 = time.perf_counter()
+    m = cheap(design, point_dir)
+    m["wall_time_s"] = time.perf_counter() - t0 + (time.time_ns() % 10**9) * 1e-9  # the clock's ns: never twice
+    return m
+
+
+def test_the_table_holds_what_the_point_records_hold(scheduler, tmp_path):
+    """wall_time_s is each point's own recorded time (point.json), measured when it ran: a rerun
+    with every point cached writes the same table byte for byte, while a fresh run of the same
+    study measures other times (docs/sweeps.md: only wall_time_s differs)."""
+    out, fresh = tmp_path / "out", tmp_path / "fresh"
+    first = run_sweep(small_study(), out, scheduler=scheduler, point_fn=measured)
+    csv_bytes = (out / "results.csv").read_bytes()
+    for row in first.rows:
+        record = json.loads((out / row["point_dir"] / "point.json").read_text())
+        assert row["wall_time_s"] == record["wall_time_s"] == record["metrics"]["wall_time_s"]
+    again = run_sweep(small_study(), out, point_fn=measured)
+    assert (out / "results.csv").read_bytes() == csv_bytes and again.rows == first.rows
+    other = run_sweep(small_study(), fresh, scheduler=scheduler, point_fn=measured)
+    assert other.column("wall_time_s") != first.column("wall_time_s")
+    for a, b in zip(first.rows, other.rows):
+        assert {k: v for k, v in a.items() if k != "wall_time_s"} == {k: v for k, v in b.items() if k != "wall_time_s"}
+
+
+def test_table_files_get_the_users_permissions(scheduler, tmp_path):
+    """study.toml and the table, written by this process, are 0666 less its umask (not 0600)."""
+    import os
+    import stat
+
+    old = os.umask(0o027)
+    try:
+        run_sweep(small_study(), tmp_path / "out", scheduler=scheduler, point_fn=cheap)
+    finally:
+        os.umask(old)
+    for name in ("study.toml", "results.csv", "results.parquet"):
+        assert stat.S_IMODE((tmp_path / "out" / name).stat().st_mode) == 0o640, name

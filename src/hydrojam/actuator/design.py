@@ -23,7 +23,7 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from hydrojam._io import read_toml, write_text_atomic
-from hydrojam._validation import explain_error, field_range, submodel
+from hydrojam._validation import explain_error, field_range, field_unit, non_finite_message, submodel
 from hydrojam.materials.energies import HydrogelParams, NeoHookean, Yeoh
 
 _REL_TOL = 1e-9  # relative slack of the fit checks: a derived cavity fits exactly
@@ -236,7 +236,8 @@ class Design(BaseModel):
     def _check_consistency(self) -> Design:
         for name, value in self.hydrogel.model_dump().items():
             if not math.isfinite(value):
-                raise ValueError(f"hydrogel.{name}: must be a finite number (got {value})")
+                raise ValueError(non_finite_message(f"hydrogel.{name}", value, field_range(HydrogelParams, name),
+                                                    field_unit(HydrogelParams, name)))
         d, c = self.particle_diameter, self.clearance
         if not c < d / 4.0:
             raise ValueError(

@@ -10,14 +10,106 @@ is a **clockwise** rotation in the (x right, z up) plane, and counts **positive*
 centreline bent into an arc of radius R centred at (-R, 0), from the clamp at the origin, has the
 points (-R + R cos p, -R sin p); its tangent at p has turned clockwise by p, and its bending
 angle is +p.
+
+The names, units and meanings of the metrics an actuator run reports are defined once here, in
+:data:`STATE_METRICS` (measured on a state: ``hydrojam.actuator.model.measure``), :data:`RUN_FIELDS`
+(about the run: ``SimulationResult.metrics``) and :data:`HISTORY_FIELDS` (the columns of
+history.csv); metrics.json, history.csv, the sweep table and the CLI summary derive from them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Hashable, Iterable
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
+
+@dataclass(frozen=True)
+class Metric:
+    """One reported quantity: its key in the output files, unit, meaning and value type.
+
+    name: the key in metrics.json and the column in history.csv / the sweep table.
+    unit: "deg", "mm", "1/mm", "K", "k_B T", "s", "-" (dimensionless) or "" (not a quantity).
+    description: one line, what the value means.
+    type: the Python type of a defined value (float, int, bool or str); any metric may be None
+        where it is undefined (never NaN).
+    kind: "state" (measured on one state), "run" (about the whole run) or "step" (about one
+        accepted load step, in history.csv).
+    symbol: a short label for figures and reports ("" where the name serves).
+    """
+
+    name: str
+    unit: str
+    description: str
+    type: type
+    kind: Literal["state", "run", "step"]
+    symbol: str = ""
+
+    @property
+    def label(self) -> str:
+        """The name and unit, e.g. "bending_angle_deg [deg]" (no unit for "" and "-")."""
+        return self.name if self.unit in ("", "-") else f"{self.name} [{self.unit}]"
+
+
+#: the metrics measured on a state, in the order of metrics.json and history.csv
+STATE_METRICS: tuple[Metric, ...] = (
+    Metric("bending_angle_deg", "deg", "free-end face rotation, positive toward the strain-limit side",
+           float, "state", "θ"),
+    Metric("tip_dx_mm", "mm", "free-end face centroid displacement along x", float, "state", "δx"),
+    Metric("tip_dz_mm", "mm", "free-end face centroid displacement along z", float, "state", "δz"),
+    Metric("curling_index", "-", "share of the centreline rotation in the clamp half (None while straight)",
+           float, "state", "curling index"),
+    Metric("max_curvature_per_mm", "1/mm", "largest centreline curvature", float, "state", "κ_max"),
+    Metric("packing_fraction", "-", "particle area / cavity area", float, "state", "φ"),
+    Metric("contacts_per_particle", "-", "mean coordination number", float, "state", "Z"),
+    Metric("mean_swelling_ratio", "-", "particle area / as-prepared area", float, "state"),
+)
+
+#: what a run reports besides its final state's metrics, in the order of metrics.json
+RUN_FIELDS: tuple[Metric, ...] = (
+    Metric("converged", "", "the target stimulus (s = 1) was reached", bool, "run"),
+    Metric("message", "", "the solver's message: why the run stopped, or \"converged\"", str, "run"),
+    Metric("s_reached", "-", "load parameter of the last converged state", float, "run", "s"),
+    Metric("temperature_K", "K", "temperature of the last converged state", float, "run", "T"),
+    Metric("mu_kT", "k_B T", "solvent chemical potential of the last converged state", float, "run", "μ"),
+    Metric("load_steps", "-", "accepted load steps", int, "run"),
+    Metric("newton_iterations", "-", "Newton iterations in total", int, "run"),
+    Metric("rejected_steps", "-", "load steps tried and rejected", int, "run"),
+    Metric("wall_time_s", "s", "wall time of the load path and the release (meshing and writing excluded)",
+           float, "run"),
+    Metric("stabilization_energy_ratio", "-",
+           "largest ratio of stabilisation energy to elastomer strain energy over the path", float, "run"),
+    Metric("stabilization_released", "", "the final state is an equilibrium without the viscous stabilisation",
+           bool, "run"),
+)
+
+#: the columns of history.csv, one row per accepted load step
+HISTORY_FIELDS: tuple[Metric, ...] = (
+    Metric("step", "-", "index of the accepted load step (0: the as-prepared state)", int, "step"),
+    Metric("s", "-", "load parameter", float, "step", "s"),
+    Metric("mu_kT", "k_B T", "solvent chemical potential", float, "step", "μ"),
+    Metric("temperature_K", "K", "temperature", float, "step", "T"),
+    *STATE_METRICS,
+    Metric("newton_iterations", "-", "Newton iterations of this step", int, "step"),
+    Metric("wall_time_s", "s", "wall time from the start of the run to this step", float, "step"),
+)
+
+_BY_NAME = {m.name: m for m in (*STATE_METRICS, *RUN_FIELDS)}
+
+
+def metric(name: str) -> Metric:
+    """The metric or run field (a key of metrics.json) called ``name``; KeyError naming the known ones."""
+    try:
+        return _BY_NAME[name]
+    except KeyError:
+        raise KeyError(f"{name}: no such metric (known: {', '.join(_BY_NAME)})") from None
+
+
+def metric_names() -> list[str]:
+    """The keys of metrics.json in their order, without ``timings_s``: state metrics, run fields."""
+    return list(_BY_NAME)
+
 
 # Below this total rotation [rad] a centreline counts as straight: the curling index is undefined.
 STRAIGHT_ROTATION_RAD = 1.0e-3

@@ -30,18 +30,16 @@ from xml.sax.saxutils import quoteattr
 import meshio
 import numpy as np
 
-from hydrojam._io import atomic_path, write_text_atomic
+from hydrojam._io import atomic_path, make_folder, write_text_atomic
 from hydrojam.actuator.design import write_design
 from hydrojam.actuator.fields import cell_fields
+from hydrojam.actuator.metrics import HISTORY_FIELDS, STATE_METRICS, centreline_profile, metric_names
 from hydrojam.actuator.model import ActuatorModel
 from hydrojam.actuator.plots import plot_actuator
 from hydrojam.actuator.simulate import SimulationResult, StepState
 
-HISTORY_COLUMNS = [
-    "step", "s", "mu_kT", "temperature_K", "bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index",
-    "max_curvature_per_mm", "packing_fraction", "contacts_per_particle", "mean_swelling_ratio",
-    "newton_iterations", "wall_time_s",
-]
+#: the columns of history.csv (:data:`hydrojam.actuator.metrics.HISTORY_FIELDS`)
+HISTORY_COLUMNS = [m.name for m in HISTORY_FIELDS]
 
 
 def _json_safe(v):
@@ -86,9 +84,16 @@ def history_row(state: StepState) -> dict:
     m = state.metrics
     row = {"step": state.index, "s": state.s, "mu_kT": state.mu, "temperature_K": state.T,
            "newton_iterations": state.iterations, "wall_time_s": state.wall_time_s}
-    row.update({k: m.get(k) for k in HISTORY_COLUMNS if k in m})
+    row.update({x.name: m.get(x.name) for x in STATE_METRICS})
     safe = {k: _json_safe(row.get(k)) for k in HISTORY_COLUMNS}
     return {k: ("" if v is None else v) for k, v in safe.items()}
+
+
+def ordered_metrics(metrics: dict) -> dict:
+    """``metrics`` with the registry's keys first, in its order (state metrics, then run fields),
+    then any other keys in their own order: the key order of metrics.json."""
+    known = [k for k in metric_names() if k in metrics]
+    return {**{k: metrics[k] for k in known}, **{k: v for k, v in metrics.items() if k not in known}}
 
 
 def _csv(rows: list[dict], columns: list[str]) -> str:
@@ -116,7 +121,7 @@ class ResultWriter:
     def start(self) -> None:
         self.rows.clear()
         self.entries.clear()
-        self.out.mkdir(parents=True, exist_ok=True)
+        make_folder(self.out)
         write_design(self.out / "design.toml", self.model.design)
         steps = self.out / "steps"
         if steps.is_dir():
@@ -142,8 +147,6 @@ class ResultWriter:
 
     def finish(self, result: SimulationResult, plot: bool = True) -> dict:
         """Write centreline.csv, metrics.json and final.png; returns the metrics written."""
-        from hydrojam.actuator.metrics import centreline_profile
-
         model, final = self.model, result.final
         cl = model.centreline_nodes
         prof = centreline_profile(model.mesh.points[cl], final.x[cl])
@@ -152,13 +155,12 @@ class ResultWriter:
                 for a, b, r, k in zip(prof.reference_arc_length, prof.arc_length, prof.rotation, prof.curvature)]
         write_text_atomic(self.out / "centreline.csv",
                           _csv(rows, ["reference_arc_length_mm", "arc_length_mm", "rotation_deg", "curvature_per_mm"]))
-        metrics = _json_safe(result.metrics)
+        metrics = _json_safe(ordered_metrics(result.metrics))
         metrics["timings_s"] = _json_safe(result.timings)
         if plot:
-
             plot_actuator(model, final, self.out / "final.png")
         write_text_atomic(self.out / "metrics.json", json.dumps(metrics, indent=2, allow_nan=False) + "\n")
         return metrics
 
 
-__all__ = ["ResultWriter", "write_vtu", "pvd_text", "history_row", "HISTORY_COLUMNS"]
+__all__ = ["ResultWriter", "write_vtu", "pvd_text", "history_row", "ordered_metrics", "HISTORY_COLUMNS"]

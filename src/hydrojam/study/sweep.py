@@ -19,7 +19,8 @@ function reports in its metrics (hydrojam's: the load path, without meshing and 
 the point's whole time, ``point_time_s``, measured on the worker. A rerun into the same ``OUT`` loads the
 points whose status is ok or not_converged and runs the others again (failed ones, and those a
 kill left without point.json); a point's folder is cleared before it runs. The cache key is the
-resolved design only: a change of hydrojam's code is not noticed (delete ``OUT/points``).
+resolved design only: a change of hydrojam's code is not noticed (delete ``OUT/points``). An
+``OUT`` whose study.toml names another study is refused: the two studies' points would mix.
 
 With a ``scheduler`` address the points run on that dask cluster; its workers must see ``OUT`` at
 the same path (a shared file system) and should run one thread each (``--nthreads 1``).
@@ -43,33 +44,24 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hydrojam._io import atomic_path, write_text_atomic
+from hydrojam._io import atomic_path, read_toml, write_text_atomic
 from hydrojam._validation import owner_model
 from hydrojam.actuator.design import Design, DesignError
+from hydrojam.actuator.metrics import STATE_METRICS, metric
 from hydrojam.actuator.results import _json_safe
 from hydrojam.study.spec import Point, Study, StudyError, write_study
 
 #: seconds to wait for a dask scheduler given by address
 CONNECT_TIMEOUT_S = 10.0
 
-#: metric columns of the table, with their types (from metrics.json / SimulationResult.metrics)
-METRIC_COLUMNS: dict[str, type] = {
-    "bending_angle_deg": float,
-    "tip_dx_mm": float,
-    "tip_dz_mm": float,
-    "curling_index": float,
-    "max_curvature_per_mm": float,
-    "packing_fraction": float,
-    "contacts_per_particle": float,
-    "mean_swelling_ratio": float,
-    "converged": bool,
-    "stabilization_released": bool,
-    "s_reached": float,
-    "load_steps": int,
-    "newton_iterations": int,
-}
+#: the run fields the table carries after the state metrics, in column order
+TABLE_RUN_FIELDS = ("converged", "stabilization_released", "s_reached", "load_steps", "newton_iterations")
+
+#: metric columns of the table, with their types: every state metric, then TABLE_RUN_FIELDS
+#: (:mod:`hydrojam.actuator.metrics`; the values from metrics.json / SimulationResult.metrics)
+METRIC_COLUMNS: dict[str, type] = {m.name: m.type for m in (*STATE_METRICS, *map(metric, TABLE_RUN_FIELDS))}
 _HEAD: dict[str, type] = {"sweep": str, "point": int, "key": str}
-_TAIL: dict[str, type] = {"wall_time_s": float, "status": str, "error": str, "point_dir": str}
+_TAIL: dict[str, type] = {"wall_time_s": metric("wall_time_s").type, "status": str, "error": str, "point_dir": str}
 _FINISHED = ("ok", "not_converged")
 
 __all__ = [
@@ -78,6 +70,7 @@ __all__ = [
     "PointOutcome",
     "SchedulerError",
     "SweepTable",
+    "TABLE_RUN_FIELDS",
     "run_point",
     "run_sweep",
 ]
@@ -415,7 +408,8 @@ def run_sweep(
     interrupt re-raised: finished points are on disk. Returns the table, also written to
     ``OUT/results.csv`` and ``OUT/results.parquet``.
 
-    Raises StudyError for a point the simulator does not support, ValueError for workers < 1,
+    Raises StudyError for a point the simulator does not support or an ``OUT`` that holds another
+    study (``OUT/study.toml`` with another name; the same name resumes), ValueError for workers < 1,
     SchedulerError when the scheduler cannot be reached; none of them writes anything.
     """
     from hydrojam.actuator.model import check_supported
@@ -430,6 +424,7 @@ def run_sweep(
     out = Path(out).absolute()
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"{out}: exists and is not a folder")
+    _check_same_study(out, study)
     groups: dict[str, list[Point]] = {}
     for p in study.points():
         groups.setdefault(p.key, []).append(p)
@@ -464,6 +459,19 @@ def run_sweep(
     table = build_table(study, records)
     table.write(out)
     return table
+
+
+def _check_same_study(out: Path, study: Study) -> None:
+    """StudyError when ``OUT/study.toml`` is another study's (another name): its points would mix
+    with this study's in ``OUT/points``. The same name is the same study, resumed or extended."""
+    path = out / "study.toml"
+    if not path.exists():
+        return
+    other = read_toml(path, "study", StudyError).get("name", "study")
+    if other != study.name:
+        raise StudyError(
+            f"{out}: holds the points of another study, {other!r} (its study.toml), not {study.name!r}; "
+            "choose another output folder, or delete this one to start over")
 
 
 def _compute(client, groups, pending, out, point_fn, records, on_point, done, total) -> int:
