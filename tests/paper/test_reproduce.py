@@ -1,4 +1,5 @@
-"""The paper's Section IV study (hydrojam.paper.reproduce): point sets, claim checks, figures and report.
+"""The paper's Section IV (hydrojam.paper): the study's point sets, claim checks, figures, report and
+reproduce() end to end.
 
 No simulation runs here: rows are synthetic, shaped like the paper's statements (or against
 them), and point folders hold tiny hand-made final.vtu files (a few quadratic triangles with a
@@ -14,7 +15,8 @@ import meshio
 import numpy as np
 import pytest
 
-from hydrojam.paper import reproduce as rp
+from hydrojam.paper import claims as pclaims, figures as pfigures, report as preport, study as pstudy
+from hydrojam.paper.reproduce import reproduce
 from hydrojam.actuator.design import apply_overrides, default_design, write_design
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -41,13 +43,13 @@ def row(sweep: str, field: str, value, theta, dx, dz, ci=0.5, status="ok", **ext
     return r
 
 
-def temperature_rows(Ts=rp.TEMPERATURES_K, sign=-1.0) -> list[dict]:
+def temperature_rows(Ts=pstudy.TEMPERATURES_K, sign=-1.0) -> list[dict]:
     """Paper-like (sign -1): angle and displacements fall linearly as T rises, δx falls most."""
     return [row("temperature", "stimulus.temperature", T, 75 + sign * 2.3 * (T - 275),
                 -(50 + sign * 1.5 * (T - 275)), -(12 + sign * 0.3 * (T - 275))) for T in Ts]
 
 
-def layer_rows(PLs=rp.PARTICLE_LAYERS) -> list[dict]:
+def layer_rows(PLs=pstudy.PARTICLE_LAYERS) -> list[dict]:
     """Paper-like: θ peaks at 9, |δx| rises to 9 then flat, |δz| peaks at 7, curling from 10 on."""
     rows = []
     for n in PLs:
@@ -58,7 +60,7 @@ def layer_rows(PLs=rp.PARTICLE_LAYERS) -> list[dict]:
     return rows
 
 
-def thickness_rows(hs=rp.STRAIN_LIMIT_THICKNESSES_MM) -> list[dict]:
+def thickness_rows(hs=pstudy.STRAIN_LIMIT_THICKNESSES_MM) -> list[dict]:
     """Paper-like: θ rises to 10 mm then levels; displacements rise to 10 mm and drop at 12."""
     rows = []
     for h in hs:
@@ -101,7 +103,7 @@ def with_values(rows, **by_param):
 
 
 def test_point_sets_full_and_quick():
-    full, quick = rp.paper_points(False), rp.paper_points(True)
+    full, quick = pstudy.paper_points(False), pstudy.paper_points(True)
     assert full == {"temperature": {"stimulus.temperature": [275.0, 280.0, 285.0, 290.0, 295.0]},
                     "particle_layers": {"particle_layers": list(range(5, 20))},
                     "strain_limit_thickness": {"strain_limit_thickness": [4.0, 6.0, 8.0, 10.0, 12.0]}}
@@ -109,17 +111,17 @@ def test_point_sets_full_and_quick():
                      "particle_layers": {"particle_layers": [5, 7, 9, 11, 15, 19]},
                      "strain_limit_thickness": {"strain_limit_thickness": [4.0, 8.0, 12.0]}}
     assert sum(len(v) for s in full.values() for v in s.values()) == 25
-    assert rp.paper_base(False) == default_design()
-    assert rp.paper_base(True).mesh.size == rp.QUICK_MESH_SIZE == 4.0
-    assert rp.paper_base(True) == apply_overrides(default_design(), ["mesh.size=4.0"])
+    assert pstudy.paper_base(False) == default_design()
+    assert pstudy.paper_base(True).mesh.size == pstudy.QUICK_MESH_SIZE == 4.0
+    assert pstudy.paper_base(True) == apply_overrides(default_design(), ["mesh.size=4.0"])
 
 
 @pytest.mark.parametrize("quick", [False, True])
 def test_base_point_is_the_same_design_in_every_sweep(quick):
     """Each sweep's value at the base equals the base design exactly (types included), so the
     sweep machinery runs it once (one key)."""
-    base = rp.paper_base(quick)
-    for sweep in rp.paper_points(quick).values():
+    base = pstudy.paper_base(quick)
+    for sweep in pstudy.paper_points(quick).values():
         ((field, values),) = sweep.items()
         at_base = [v for v in values if v == {"stimulus.temperature": 275.0, "particle_layers": 5,
                                                "strain_limit_thickness": 8.0}[field]]
@@ -131,15 +133,15 @@ def test_base_point_is_the_same_design_in_every_sweep(quick):
 def test_paper_study(quick, distinct):
     """25 (12) points, 23 (10) distinct designs: the base point is one key in all three sweeps."""
     study_mod = pytest.importorskip("hydrojam.study.spec")
-    study = rp.paper_study(quick)
+    study = pstudy.paper_study(quick)
     assert isinstance(study, study_mod.Study)
-    assert study.base == rp.paper_base(quick)
-    assert {s.name: s.vary for s in study.sweeps} == rp.paper_points(quick)
+    assert study.base == pstudy.paper_base(quick)
+    assert {s.name: s.vary for s in study.sweeps} == pstudy.paper_points(quick)
     points = study.points()
     assert len(points) == distinct + 2 and len({p.key for p in points}) == distinct
     base_key = study_mod.design_key(study.base)
-    assert {p.sweep for p in points if p.key == base_key} == {s.name for s in rp.PAPER_SWEEPS}
-    assert all(p.design.mesh.size == (rp.QUICK_MESH_SIZE if quick else 2.0) for p in points)
+    assert {p.sweep for p in points if p.key == base_key} == {s.name for s in pstudy.PAPER_SWEEPS}
+    assert all(p.design.mesh.size == (pstudy.QUICK_MESH_SIZE if quick else 2.0) for p in points)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -147,19 +149,19 @@ def test_paper_study(quick, distinct):
 
 
 def test_claim_ids_unique_with_reasons():
-    ids = [c.id for c in rp.PAPER_CLAIMS]
+    ids = [c.id for c in pclaims.PAPER_CLAIMS]
     assert len(ids) == len(set(ids)) == 10
-    assert set(rp.DISAGREEMENT_REASONS) == set(ids)
-    assert all("likely" in text for text in rp.DISAGREEMENT_REASONS.values())
-    assert {c.sweep for c in rp.PAPER_CLAIMS} == {s.name for s in rp.PAPER_SWEEPS}
+    assert set(pclaims.DISAGREEMENT_REASONS) == set(ids)
+    assert all("likely" in text for text in pclaims.DISAGREEMENT_REASONS.values())
+    assert {c.sweep for c in pclaims.PAPER_CLAIMS} == {s.name for s in pstudy.PAPER_SWEEPS}
 
 
 @pytest.mark.parametrize("quick", [False, True])
 def test_paper_like_rows_agree(quick):
-    pts = rp.paper_points(quick)
+    pts = pstudy.paper_points(quick)
     Ts, PLs, hs = (pts[s][f] for s, f in zip(("temperature", "particle_layers", "strain_limit_thickness"), FIELDS))
     rows = temperature_rows(Ts) + layer_rows(PLs) + thickness_rows(hs)
-    results = {r.claim.id: r for r in rp.check_claims(rows)}
+    results = {r.claim.id: r for r in pclaims.check_claims(rows)}
     expected = {"h-angle": "undetermined", "h-displacement": "undetermined"} if quick else {}
     for cid, res in results.items():
         assert res.verdict == expected.get(cid, "agree"), (cid, res.summary)
@@ -171,7 +173,7 @@ def test_paper_like_rows_agree(quick):
 
 
 def test_temperature_claims_disagree_when_bending_rises_with_T():
-    results = {r.claim.id: r for r in rp.check_claims(temperature_rows(sign=+1.0))}
+    results = {r.claim.id: r for r in pclaims.check_claims(temperature_rows(sign=+1.0))}
     assert results["T-angle"].verdict == "disagree"
     assert results["T-displacement"].verdict == "disagree"
     assert "+46.0°" in results["T-angle"].summary  # 75 -> 121 deg over 20 K
@@ -180,7 +182,7 @@ def test_temperature_claims_disagree_when_bending_rises_with_T():
 
 def test_temperature_non_monotone_and_dz_dominant_disagree():
     rows = with_values(temperature_rows(), bending_angle_deg={285.0: 90.0}, tip_dz_mm={275.0: -80.0})
-    results = {r.claim.id: r for r in rp.check_claims(rows)}
+    results = {r.claim.id: r for r in pclaims.check_claims(rows)}
     assert results["T-angle"].verdict == "disagree"
     assert "280 K -> 285 K" in results["T-angle"].summary
     assert results["T-dx-dominant"].verdict == "disagree"
@@ -188,14 +190,14 @@ def test_temperature_non_monotone_and_dz_dominant_disagree():
 
 
 def test_layer_claims_disagree():
-    PLs = rp.PARTICLE_LAYERS
+    PLs = pstudy.PARTICLE_LAYERS
     rows = [row("particle_layers", "particle_layers", n, 50 + 2 * n, -(20 + 3 * n), -(5 + n), ci=0.5) for n in PLs]
-    results = {r.claim.id: r for r in rp.check_claims(rows)}
+    results = {r.claim.id: r for r in pclaims.check_claims(rows)}
     for cid in ("PL-angle", "PL-curling", "PL-dx", "PL-dz"):
         assert results[cid].verdict == "disagree", cid
     # the curling rise in the wrong place: at 15 -> 16 layers
     rows = with_values(layer_rows(), curling_index={n: (0.4 if n <= 15 else 0.9) for n in PLs})
-    res = {r.claim.id: r for r in rp.check_claims(rows)}["PL-curling"]
+    res = {r.claim.id: r for r in pclaims.check_claims(rows)}["PL-curling"]
     assert res.verdict == "disagree" and "from PL 15 to 16" in res.summary
 
 
@@ -203,18 +205,18 @@ def test_curling_index_outside_unit_interval_is_not_used():
     """A curling index outside [0, 1] (the rotation reverses along the actuator, e.g. -1.05 or
     2.94 where the total rotation is near zero) says neither bending nor curling: such points are
     skipped and named, and with too few left the transition is undetermined, not agreed."""
-    PLs = rp.PARTICLE_LAYERS
+    PLs = pstudy.PARTICLE_LAYERS
     ci = {n: (0.4 if n <= 9 else 0.8) for n in PLs}
     ci.update({n: (-1.05 if n % 2 else 2.94) for n in PLs if n >= 11})
-    res = {r.claim.id: r for r in rp.check_claims(with_values(layer_rows(), curling_index=ci))}["PL-curling"]
+    res = {r.claim.id: r for r in pclaims.check_claims(with_values(layer_rows(), curling_index=ci))}["PL-curling"]
     assert res.verdict == "undetermined"
     assert "skipped" in res.summary and res.summary.count("outside [0, 1]") == 9  # PL 11..19
 
 
 def test_thickness_claims_disagree():
     rows = [row("strain_limit_thickness", "strain_limit_thickness", h, 100 - 5 * h, -(60 - 3 * h), -(20 - h))
-            for h in rp.STRAIN_LIMIT_THICKNESSES_MM]
-    results = {r.claim.id: r for r in rp.check_claims(rows)}
+            for h in pstudy.STRAIN_LIMIT_THICKNESSES_MM]
+    results = {r.claim.id: r for r in pclaims.check_claims(rows)}
     assert results["h-angle"].verdict == "disagree"
     assert results["h-displacement"].verdict == "disagree"
 
@@ -222,7 +224,7 @@ def test_thickness_claims_disagree():
 def test_undetermined_with_missing_failed_or_unconverged_points():
     rows = temperature_rows()
     rows[-1] = row("temperature", "stimulus.temperature", 295.0, 0, 0, 0, status="failed")
-    results = {r.claim.id: r for r in rp.check_claims(rows + layer_rows() + thickness_rows())}
+    results = {r.claim.id: r for r in pclaims.check_claims(rows + layer_rows() + thickness_rows())}
     for cid in ("T-angle", "T-displacement", "T-dx-dominant"):
         assert results[cid].verdict == "undetermined", cid
         assert "at 295 K: failed" in results[cid].summary
@@ -231,21 +233,21 @@ def test_undetermined_with_missing_failed_or_unconverged_points():
     # not converged at the peak, and no points at all
     rows = layer_rows()
     rows[4] = row("particle_layers", "particle_layers", 9, 80.0, -50.0, -14.8, ci=0.4, status="not_converged")
-    results = {r.claim.id: r for r in rp.check_claims(rows)}
+    results = {r.claim.id: r for r in pclaims.check_claims(rows)}
     assert results["PL-angle"].verdict == "undetermined"
     assert "θ at 9: not converged" in results["PL-angle"].summary
     assert results["PL-dz"].verdict == "agree"  # does not need PL 9; skips it
-    results = {r.claim.id: r for r in rp.check_claims([])}
+    results = {r.claim.id: r for r in pclaims.check_claims([])}
     assert {r.verdict for r in results.values()} == {"undetermined"}
     # a straight actuator: curling index None
     rows = with_values(layer_rows(), curling_index={n: None for n in range(10, 20)})
-    assert {r.claim.id: r for r in rp.check_claims(rows)}["PL-curling"].verdict == "undetermined"
+    assert {r.claim.id: r for r in pclaims.check_claims(rows)}["PL-curling"].verdict == "undetermined"
 
 
 def test_interior_failure_is_skipped_and_named():
     rows = layer_rows()
     rows[8] = row("particle_layers", "particle_layers", 13, 0, 0, 0, status="failed")
-    res = {r.claim.id: r for r in rp.check_claims(rows)}
+    res = {r.claim.id: r for r in pclaims.check_claims(rows)}
     assert res["PL-dx"].verdict == "agree"
     assert "skipped 13 (failed)" in res["PL-dx"].summary
 
@@ -308,7 +310,7 @@ def study_dir(tmp_path_factory):
     """A quick study's rows and point folders; T = 295 K failed, PL 11 not converged, θ falling
     with h (h-angle disagrees) and a flat curling index (PL-curling disagrees)."""
     out = tmp_path_factory.mktemp("reproduce")
-    pts = rp.paper_points(True)
+    pts = pstudy.paper_points(True)
     rows = (temperature_rows(pts["temperature"]["stimulus.temperature"])
             + layer_rows(pts["particle_layers"]["particle_layers"])
             + thickness_rows(pts["strain_limit_thickness"]["strain_limit_thickness"]))
@@ -328,15 +330,15 @@ def study_dir(tmp_path_factory):
 def test_plot_shapes_and_trends(study_dir, tmp_path):
     out, table = study_dir
     rows = table.select("temperature")
-    rp.plot_shapes(out, rows, "stimulus.temperature", tmp_path / "shapes.png")
-    rp.plot_trends(rows, "stimulus.temperature", tmp_path / "trends.png", "temperature T", "K")
-    rp.plot_trends(table.select("particle_layers"), "particle_layers", tmp_path / "pl.png", "particle layers PL",
+    pfigures.plot_shapes(out, rows, "stimulus.temperature", tmp_path / "shapes.png")
+    pfigures.plot_trends(rows, "stimulus.temperature", tmp_path / "trends.png", "temperature T", "K")
+    pfigures.plot_trends(table.select("particle_layers"), "particle_layers", tmp_path / "pl.png", "particle layers PL",
                    "layers")
     for name in ("shapes.png", "trends.png", "pl.png"):
         assert (tmp_path / name).read_bytes()[:8] == PNG_MAGIC
     # a point whose final.vtu is missing gets a panel too
     broken = [dict(rows[0], point_dir="points/nowhere")]
-    rp.plot_shapes(out, broken, "stimulus.temperature", tmp_path / "broken.png")
+    pfigures.plot_shapes(out, broken, "stimulus.temperature", tmp_path / "broken.png")
     assert (tmp_path / "broken.png").read_bytes()[:8] == PNG_MAGIC
 
 
@@ -349,7 +351,7 @@ def test_read_shape_moves_reference_points_by_displacement(tmp_path):
     xyz = lambda a: np.column_stack([a[:, 0], np.zeros(len(a)), a[:, 1]])  # noqa: E731
     meshio.write(tmp_path / "final.vtu", meshio.Mesh(xyz(p), [("triangle6", c)], point_data={"displacement": xyz(disp)},
                                                      cell_data={"body_id": [np.array([0, 1], dtype=np.int32)]}))
-    pts, tris, body, outline = rp._read_shape(tmp_path)
+    pts, tris, body, outline = pfigures._read_shape(tmp_path)
     np.testing.assert_allclose(pts, p + disp)
     assert tris.shape == (8, 3) and list(body) == [0] * 4 + [1] * 4
     np.testing.assert_allclose(outline.min(axis=0), [-14.1, -88.5])
@@ -357,35 +359,35 @@ def test_read_shape_moves_reference_points_by_displacement(tmp_path):
     # without a displacement field the points are taken as deformed, and there is no outline
     meshio.write(tmp_path / "final.vtu", meshio.Mesh(xyz(p + disp), [("triangle6", c)],
                                                      cell_data={"body_id": [np.array([0, 1], dtype=np.int32)]}))
-    pts, _, _, outline = rp._read_shape(tmp_path)
+    pts, _, _, outline = pfigures._read_shape(tmp_path)
     np.testing.assert_allclose(pts, p + disp)
     assert outline is None
 
 
 def test_report(study_dir):
     out, table = study_dir
-    written = rp.write_figures(out, table)
-    assert sorted(p.name for p in written) == sorted(f"{s.name}_{k}.png" for s in rp.PAPER_SWEEPS
+    written = pfigures.write_figures(out, table)
+    assert sorted(p.name for p in written) == sorted(f"{s.name}_{k}.png" for s in pstudy.PAPER_SWEEPS
                                                      for k in ("shapes", "trends"))
-    path = rp.write_report(out, table, quick=True, wall_time_s=3725.0, workers=2,
+    path = preport.write_report(out, table, quick=True, wall_time_s=3725.0, workers=2,
                            explanations={"h-angle": "EXPLAINED BY THE CALLER"})
     assert path == out / "report.md"
     text = path.read_text(encoding="utf-8")
-    for s in rp.PAPER_SWEEPS:
+    for s in pstudy.PAPER_SWEEPS:
         for k in ("shapes", "trends"):
             assert f"](figures/{s.name}_{k}.png)" in text
             assert (out / "figures" / f"{s.name}_{k}.png").read_bytes()[:8] == PNG_MAGIC
     claims = [line for line in text.splitlines() if line.startswith("| ") and " | **" in line]
-    assert [line.split(" | ")[0][2:] for line in claims] == [c.id for c in rp.PAPER_CLAIMS]
+    assert [line.split(" | ")[0][2:] for line in claims] == [c.id for c in pclaims.PAPER_CLAIMS]
     assert not re.search(r"\bnan\b|\binf\b", text, re.IGNORECASE)
     assert "**quick**" in text and "mesh size 4 mm" in text and "62.1 min" in text and "Workers: 2 local" in text
     assert "failed: solver stopped: minimum increment" in text
     assert "not_converged" in text
     assert "EXPLAINED BY THE CALLER" in text  # h-angle disagrees: the caller's reason
-    assert rp.DISAGREEMENT_REASONS["PL-curling"] in text  # the default reason
-    assert rp.DISAGREEMENT_REASONS["h-angle"] not in text
+    assert pclaims.DISAGREEMENT_REASONS["PL-curling"] in text  # the default reason
+    assert pclaims.DISAGREEMENT_REASONS["h-angle"] not in text
     assert "## Model differences" in text and "plane strain" in text
-    assert f"{rp.ANGLE_TOL:g} ×" in text
+    assert f"{pclaims.ANGLE_TOL:g} ×" in text
     from hydrojam import __version__
 
     assert f"hydrojam {__version__}" in text
@@ -403,7 +405,7 @@ def test_reproduce_end_to_end_from_cached_points(tmp_path):
     pytest.importorskip("hydrojam.study.sweep")
     import json
 
-    study = rp.paper_study(quick=True)
+    study = pstudy.paper_study(quick=True)
     done = set()
     for p in study.points():
         if p.key in done:
@@ -415,14 +417,14 @@ def test_reproduce_end_to_end_from_cached_points(tmp_path):
         record = {"key": p.key, "status": "ok", "error": None, "metrics": metrics, "wall_time_s": 60.0}
         (tmp_path / "points" / p.key / "point.json").write_text(json.dumps(record))
     seen = []
-    table, report = rp.reproduce(tmp_path, quick=True, on_point=lambda o, d, t: seen.append((d, t)))
+    table, report = reproduce(tmp_path, quick=True, on_point=lambda o, d, t: seen.append((d, t)))
     assert seen[-1] == (10, 10) and len(table.rows) == 12
     text = report.read_text(encoding="utf-8")
     assert report == tmp_path / "report.md"
     assert len(list((tmp_path / "figures").glob("*.png"))) == 6
-    verdicts = {c.claim.id: c.verdict for c in rp.check_claims(table)}
+    verdicts = {c.claim.id: c.verdict for c in pclaims.check_claims(table)}
     assert verdicts == {c.id: ("undetermined" if c.sweep == "strain_limit_thickness" else "agree")
-                        for c in rp.PAPER_CLAIMS}
+                        for c in pclaims.PAPER_CLAIMS}
     assert "10 distinct points" in text and "compute time summed over points 10.0 min" in text
     # the command line over the same cache: nothing to simulate, exit status 0, report rewritten
     from hydrojam.cli import main
