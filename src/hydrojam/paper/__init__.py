@@ -1,2 +1,3 @@
-"""The paper's Section IV: its sweeps, its statements checked against hydrojam, figures and the
-report."""
+"""The paper's Section IV: its sweeps (``study``), its statements as data checked against hydrojam
+(``claims``), the figures (``figures``), ``report.md`` (``report``) and the whole run
+(``reproduce``)."""

@@ -1,0 +1,60 @@
+"""Reading the rows of a sweep table (:class:`hydrojam.study.sweep.SweepTable` or plain dicts):
+numbers that may be missing, a point's status, one sweep's rows, a parameter value as text."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+
+def number(v) -> float | None:
+    """A finite float or None (None, "", NaN, inf, an unreadable string -> None)."""
+    if v is None or isinstance(v, bool):
+        return None
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
+
+
+def truthy(v) -> bool | None:
+    """A table cell read as a flag: None for a missing cell, "true"/"1"/"yes" for a string."""
+    if v is None or v == "":
+        return None
+    if isinstance(v, str):
+        return v.strip().lower() in ("true", "1", "yes")
+    return bool(v)
+
+
+def point_status(row: dict) -> str:
+    """"ok", "not_converged" or "failed" (a row without status: from ``converged``)."""
+    status = row.get("status")
+    if status in ("ok", "not_converged", "failed"):
+        if status == "ok" and truthy(row.get("converged")) is False:
+            return "not_converged"
+        return status
+    conv = truthy(row.get("converged"))
+    return "ok" if conv else ("not_converged" if conv is False else "failed")
+
+
+def rows_of(table, sweep: str) -> list[dict]:
+    """The rows of one sweep from a SweepTable (``select``), or from a plain list of rows."""
+    if hasattr(table, "select"):
+        selected = table.select(sweep)
+        return list(selected.rows if hasattr(selected, "rows") else selected)
+    rows = table.rows if hasattr(table, "rows") else table
+    return [r for r in rows if r.get("sweep") == sweep]
+
+
+def sorted_by(rows: Sequence[dict], field: str) -> list[dict]:
+    """``rows`` sorted by the number in column ``field``; rows without one last."""
+    return sorted(rows, key=lambda r: (number(r.get(field)) is None, number(r.get(field)) or 0.0))
+
+
+def fmt_param(value: float | None, unit: str = "") -> str:
+    """A parameter value with its unit ("285 K", "8 mm"; layers without unit; None: "?")."""
+    if value is None:
+        return "?"
+    text = f"{value:g}"
+    return f"{text} {unit}" if unit and unit != "layers" else text

@@ -1,0 +1,258 @@
+"""The figures of the paper's Section IV study, drawn on :class:`matplotlib.figure.Figure`
+without pyplot (a notebook's backend is left alone): per sweep the deformed shapes (like the
+paper's Figs. 6, 8, 10) and the trends (Figs. 7, 9, 11), PNG at DPI dots per inch. Lengths mm.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import textwrap
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from hydrojam._io import atomic_path
+from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY
+from hydrojam.actuator.plots import _TRI6_SPLIT
+from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by
+from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
+
+__all__ = ["DPI", "SHAPES_MAX_COLUMNS", "figure_names", "plot_shapes", "plot_trends", "write_figures"]
+
+_COLOURS = {"membrane": "0.82", "strain_limit": "0.45", "particle": "#3ba7d6"}
+SHAPES_MAX_COLUMNS = 5
+DPI = 150
+
+
+def _sweep_for(param: str, label: str | None = None, unit: str | None = None) -> tuple[str, str, str]:
+    """Symbol, label and unit of the swept field ``param`` (given ones win; unknown: the field)."""
+    sw = sweep_of_field(param)
+    symbol = sw.symbol if sw else param
+    return symbol, label or (sw.label if sw else param), unit if unit is not None else (sw.unit if sw else "")
+
+
+def _read_shape(point_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """Deformed positions (n, 2), triangles (k, 3), their body ids and the undeformed outer outline
+    (a closed rectangle (5, 2), or None) from ``final.vtu``, all in (x, z) [mm].
+
+    :func:`hydrojam.actuator.results.write_vtu` writes the reference points and a ``displacement`` field:
+    the deformed points are their sum and the outline is the reference points' bounding box
+    (the actuator is a rectangle, DESIGN.md section 6). Without a displacement field the points
+    are taken as deformed and no outline is drawn."""
+    import meshio
+
+    mesh = meshio.read(point_dir / "final.vtu")
+    pts = np.asarray(mesh.points, dtype=float)[:, [0, 2]]
+    disp = mesh.point_data.get("displacement")
+    outline = None
+    if disp is not None:
+        (x0, z0), (x1, z1) = pts.min(axis=0), pts.max(axis=0)
+        outline = np.array([[x0, z1], [x1, z1], [x1, z0], [x0, z0], [x0, z1]])
+        pts = pts + np.asarray(disp, dtype=float)[:, [0, 2]]
+    tris, bodies = [], []
+    body_data = mesh.cell_data.get("body_id")
+    for i, block in enumerate(mesh.cells):
+        if block.type not in ("triangle6", "triangle"):
+            continue
+        cells = np.asarray(block.data)
+        body = (np.asarray(body_data[i]).reshape(-1) if body_data is not None
+                else np.full(len(cells), MEMBRANE_BODY))
+        if block.type == "triangle6":
+            tris.append(cells[:, _TRI6_SPLIT].reshape(-1, 3))
+            bodies.append(np.repeat(body, 4))
+        else:
+            tris.append(cells)
+            bodies.append(body)
+    if not tris:
+        raise ValueError("no triangles in final.vtu")
+    return pts, np.concatenate(tris), np.concatenate(bodies), outline
+
+
+def _body_outlines(tris: np.ndarray, body: np.ndarray) -> np.ndarray:
+    """Edges (k, 2) on the boundary of each body: triangle edges that only one triangle of that
+    body has. Membrane and strain-limit layer count as one body (bonded)."""
+    group = np.where(np.isin(body, (MEMBRANE_BODY, STRAIN_LIMIT_BODY)), MEMBRANE_BODY, body)
+    edges = np.sort(tris[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    keyed = np.column_stack([np.repeat(group, 3), edges])
+    uniq, counts = np.unique(keyed, axis=0, return_counts=True)
+    return uniq[counts == 1, 1:]
+
+
+def _failure_text(row: dict, reason: str | None = None) -> str:
+    """Why a panel is empty, wrapped to fit it."""
+    err = reason or str(row.get("error") or "no result")
+    return "\n".join(textwrap.wrap(f"failed: {err}", 28)[:6])
+
+
+def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: str | os.PathLike, *,
+                label: str | None = None, unit: str | None = None) -> None:
+    """The deformed actuators of one sweep side by side (the paper's Figs. 6, 8, 10).
+
+    One panel per point, sorted by ``param`` (a dotted design field, a column of ``rows``), all
+    at the same scale (shared limits, equal aspect): membrane light grey, strain-limit layer dark
+    grey, particles blue, read from ``OUT/<point_dir>/final.vtu``; the undeformed outer outline
+    dashed (from the point's design.toml); the title gives the parameter and the bending angle.
+    A failed point (or one without final.vtu) gets an empty panel saying why. Lengths in mm.
+    """
+    from matplotlib.collections import LineCollection, PolyCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    out = Path(out)
+    symbol, _, unit = _sweep_for(param, label, unit)
+    rows = sorted_by(rows, param)
+    panels = []
+    for row in rows:
+        pdir = out / str(row.get("point_dir") or "")
+        panel = {"row": row, "shape": None, "outline": None, "failed": None}
+        if point_status(row) == "failed" or not row.get("point_dir"):
+            panel["failed"] = _failure_text(row)
+        else:
+            try:
+                pts, tris, body, panel["outline"] = _read_shape(pdir)
+                panel["shape"] = (pts, tris, body)
+            except Exception as err:  # noqa: BLE001 - a figure must survive one bad file
+                panel["failed"] = _failure_text(row, f"cannot read final.vtu ({type(err).__name__}: {err})")
+        panels.append(panel)
+    n = max(len(panels), 1)
+    ncols = min(n, SHAPES_MAX_COLUMNS)
+    nrows = math.ceil(n / ncols)
+    allp = [p["shape"][0] for p in panels if p["shape"] is not None]
+    allp += [p["outline"] for p in panels if p["outline"] is not None]
+    if allp:
+        pts = np.vstack(allp)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+    else:
+        lo, hi = np.array([-30.0, -100.0]), np.array([30.0, 0.0])
+    pad = 0.04 * float(max(hi - lo))
+    lo, hi = lo - pad, hi + pad
+    aspect = float((hi[1] - lo[1]) / max(hi[0] - lo[0], 1e-9))
+    panel_w = 2.6
+    panel_h = min(max(panel_w * aspect, 2.0), 7.0) + 0.7
+    fig = Figure(figsize=(panel_w * ncols + 0.6, panel_h * nrows + 0.9), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    for ax in axes.flat[len(panels):]:
+        ax.set_visible(False)
+    colours = {MEMBRANE_BODY: _COLOURS["membrane"], STRAIN_LIMIT_BODY: _COLOURS["strain_limit"]}
+    for ax, panel in zip(axes.flat, panels):
+        row = panel["row"]
+        value = number(row.get(param))
+        head = f"{symbol} = {fmt_param(value, unit)}"
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [mm]", fontsize=8)
+        ax.set_ylabel("z [mm]", fontsize=8)
+        ax.tick_params(labelsize=7)
+        if panel["outline"] is not None:
+            ax.plot(panel["outline"][:, 0], panel["outline"][:, 1], "--", color="0.4", lw=0.8, zorder=3)
+        if panel["failed"] is not None:
+            ax.set_title(head, fontsize=9)
+            ax.text(0.5, 0.5, panel["failed"], transform=ax.transAxes, ha="center", va="center", fontsize=7,
+                    color="tab:red")
+            continue
+        pts, tris, body = panel["shape"]
+        order = np.argsort(body, kind="stable")  # particles drawn last, over the walls
+        tris, body = tris[order], body[order]
+        face = [colours.get(int(b), _COLOURS["particle"]) for b in body]
+        ax.add_collection(PolyCollection(pts[tris], facecolors=face, edgecolors="face", linewidths=0.3))
+        ax.add_collection(LineCollection(pts[_body_outlines(tris, body)], colors="0.2", linewidths=0.4))
+        angle = number(row.get("bending_angle_deg"))
+        title = head + (f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
+        if point_status(row) == "not_converged":
+            title += " (not converged)"
+        ax.set_title(title, fontsize=9, color="tab:red" if point_status(row) == "not_converged" else "k")
+    handles = [Patch(color=_COLOURS["membrane"], label="membrane"),
+               Patch(color=_COLOURS["strain_limit"], label="strain-limit layer"),
+               Patch(color=_COLOURS["particle"], label="hydrogel particles"),
+               Line2D([], [], ls="--", color="0.5", label="undeformed outline")]
+    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
+    fig.suptitle(f"Deformed actuators, final states ({_sweep_for(param, label, unit)[1]}); "
+                 "strain-limit layer on the -x side", fontsize=10)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=DPI, format="png")
+
+
+def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label: str, unit: str, *,
+                curling: bool | None = None) -> None:
+    """Bending angle and free-end displacement magnitudes |δx|, |δz| against the parameter (the
+    paper's Figs. 7, 9, 11), and with ``curling`` (default: for ``particle_layers``) the curling
+    index. Markers and lines; a non-converged point is drawn hollow, a failed one is left out
+    and named under the figure."""
+    from matplotlib.lines import Line2D
+
+    rows = sorted_by(rows, param)
+    if curling is None:
+        curling = param == "particle_layers"
+    quantities = [("bending_angle_deg", False, "bending angle θ [deg]\n(> 0: toward the strain-limit layer)")]
+    n_ax = 3 if curling else 2
+    fig = Figure(figsize=(4.4 * n_ax, 4.4), layout="constrained")
+    axes = fig.subplots(1, n_ax)
+    xlabel = f"{label} [{unit}]" if unit else label
+
+    def draw(ax, key, magnitude, colour, marker, name):
+        xs, ys, hollow = [], [], []
+        for r in rows:
+            p, v = number(r.get(param)), number(r.get(key))
+            if p is None or v is None or point_status(r) == "failed":
+                continue
+            xs.append(p)
+            ys.append(abs(v) if magnitude else v)
+            hollow.append(point_status(r) == "not_converged")
+        xs, ys, hollow = np.array(xs), np.array(ys), np.array(hollow, dtype=bool)
+        ax.plot(xs, ys, "-", color=colour, lw=1.2, label=name)
+        ax.plot(xs[~hollow], ys[~hollow], marker, color=colour, ms=6, ls="none")
+        ax.plot(xs[hollow], ys[hollow], marker, ms=6, ls="none", mfc="white", mec=colour, mew=1.5)
+        return bool(hollow.any())
+
+    any_hollow = draw(axes[0], *quantities[0][:2], "C0", "o", "θ")
+    axes[0].set_ylabel(quantities[0][2])
+    any_hollow |= draw(axes[1], "tip_dx_mm", True, "C1", "s", "|δx| horizontal")
+    any_hollow |= draw(axes[1], "tip_dz_mm", True, "C2", "^", "|δz| vertical")
+    axes[1].set_ylabel("free-end displacement magnitude |δ| [mm]")
+    if curling:
+        any_hollow |= draw(axes[2], "curling_index", False, "C3", "D", "curling index")
+        axes[2].axhline(0.5, color="0.6", lw=0.8, ls=":")
+        axes[2].set_ylabel("curling index [-]\n(share of rotation in the clamp half; 0.5 uniform)")
+    for ax in axes:
+        ax.set_xlabel(xlabel)
+        ax.grid(alpha=0.3)
+    notes = [Line2D([], [], color="0.3", marker="o", ls="none", mfc="white", label="hollow: not converged")]
+    handles, _ = axes[1].get_legend_handles_labels()
+    axes[1].legend(handles=handles + (notes if any_hollow else []), fontsize=8)
+    if any_hollow and not curling:
+        axes[0].legend(handles=notes, fontsize=8)
+    caption = ("|δx|, |δz|: magnitudes of the free-end displacement, as the paper plots them "
+               "(signed in the report: δx < 0 toward the strain-limit layer, δz < 0 downward)")
+    failed = [r for r in rows if point_status(r) == "failed"]
+    if failed:
+        sym, _, u = _sweep_for(param, label, unit)
+        caption += "\nfailed (not drawn): " + ", ".join(f"{sym} = {fmt_param(number(r.get(param)), u)}" for r in failed)
+    fig.supxlabel(caption, fontsize=8, color="tab:red" if failed else "0.3")
+    fig.suptitle(f"Bending angle and free-end displacement against {label}", fontsize=10)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=DPI, format="png")
+
+
+def figure_names(sweep: PaperSweep) -> tuple[str, str]:
+    """The sweep's shapes and trends figures, relative to OUT."""
+    return f"figures/{sweep.name}_shapes.png", f"figures/{sweep.name}_trends.png"
+
+
+def write_figures(out: str | os.PathLike, table) -> list[Path]:
+    """Both figures of every sweep into ``OUT/figures/`` (``<sweep>_shapes.png``,
+    ``<sweep>_trends.png``); a sweep without rows is skipped. Returns the paths written."""
+    out = Path(out)
+    written = []
+    for sw in PAPER_SWEEPS:
+        rows = rows_of(table, sw.name)
+        if not rows:
+            continue
+        shapes, trends = (out / name for name in figure_names(sw))
+        plot_shapes(out, rows, sw.field, shapes)
+        plot_trends(rows, sw.field, trends, sw.label, sw.unit)
+        written += [shapes, trends]
+    return written

@@ -1,0 +1,191 @@
+"""``OUT/report.md`` of the paper's Section IV study: what was run, per sweep its figures and a
+table of the points, the paper's statements beside hydrojam's numbers with verdicts
+(:mod:`hydrojam.paper.claims`), how they are checked, and the model differences. Measured
+results of hydrojam (what agrees, by how much, why not) are in docs/reproduce.md, not here.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from hydrojam import __version__
+from hydrojam._io import write_text_atomic
+from hydrojam.actuator.design import Design
+from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, truthy
+from hydrojam.paper.claims import (
+    ANGLE_TOL,
+    CURLING_MARGIN,
+    DISPLACEMENT_TOL,
+    PAPER_CLAIMS,
+    check_claims,
+)
+from hydrojam.paper.figures import figure_names
+from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, paper_base
+
+__all__ = ["MODEL_DIFFERENCES", "write_report"]
+
+#: how hydrojam's model differs from the paper's, as the report lists it (no measured results)
+MODEL_DIFFERENCES: tuple[str, ...] = (
+    "hydrojam is 2D plane strain: its particles are infinitely long cylinders, the paper's (ABAQUS, 3D) are "
+    "spheres. In plane strain all of a particle's swelling goes into the plane, and the membrane (softer than "
+    "the gel, with no out-of-plane hoop stretch to resist it) can balloon round the particles: a long chamber "
+    "need not stay a column (see the particle-layer shapes).",
+    "Contact is frictionless (IPC barrier), the paper's is ABAQUS contact (its friction is not stated). "
+    "Frictionless particles slide past each other: a column rearranges (zig-zags) instead of pushing along "
+    "its axis.",
+    "Our membrane and strain-limit layer are compressible neo-Hookean Ecoflex 00-30 (G = 0.023 MPa, ν = 0.45); "
+    "the paper does not give its elastomer parameters.",
+    "Our load path is quasi-static with viscous stabilisation, released at the end; a column of frictionless "
+    "particles has many equilibria and round-off selects one, so an end state is path dependent, the more so "
+    "the longer the chamber (measured spreads: docs/reproduce.md).",
+    "The paper's trends are read from its figures and words (curling judged by eye; the text puts the "
+    "strain-limit layer on the left yet says the actuator bends to the right in Sec. IV-A and to the left in "
+    "IV-C); one run per point, no uncertainty given.",
+)
+
+
+def _cell(v, fmt: str = "{:.1f}") -> str:
+    """A table cell: the number formatted, or "—" where there is none."""
+    f = number(v)
+    return "—" if f is None else fmt.format(f)
+
+
+def _md(text: str) -> str:
+    """Text made safe for one cell of a Markdown table."""
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
+    """The Markdown table of one sweep's points, sorted by the parameter (signed δx, δz)."""
+    head = f"{sw.symbol} [{sw.unit}]" if sw.unit != "layers" else sw.symbol
+    lines = [f"| {head} | θ [deg] | δx [mm] | δz [mm] | curling index | converged | Newton iterations | "
+             "wall time [s] | status |",
+             "|---:|---:|---:|---:|---:|:---:|---:|---:|:---|"]
+    for r in sorted_by(rows, sw.field):
+        status = point_status(r)
+        conv = truthy(r.get("converged"))
+        note = status if status != "failed" else f"failed: {r.get('error') or 'no result'}"
+        if status == "ok" and truthy(r.get("stabilization_released")) is False:
+            note += " (stabilisation not released)"
+        lines.append(
+            f"| {fmt_param(number(r.get(sw.field)))} | {_cell(r.get('bending_angle_deg'))} | "
+            f"{_cell(r.get('tip_dx_mm'))} | {_cell(r.get('tip_dz_mm'))} | {_cell(r.get('curling_index'), '{:.2f}')} | "
+            f"{'—' if conv is None else ('yes' if conv else 'no')} | {_cell(r.get('newton_iterations'), '{:.0f}')} | "
+            f"{_cell(r.get('wall_time_s'), '{:.0f}')} | {_md(note)} |")
+    return lines
+
+
+def _tolerance_text() -> list[str]:
+    """How the trend words, tolerances, ranges and verdicts are read, as Markdown bullets."""
+    return [
+        f"- *rises* (*falls*) from a to b: v(b) − v(a) > tol (v(a) − v(b) > tol); *levels* from a to b: "
+        f"|v(b) − v(a)| ≤ tol and the spread (max − min) over the points in [a, b] ≤ 2 tol.",
+        f"- tol = {ANGLE_TOL:g} × the sweep's largest |θ| for the bending angle, and {DISPLACEMENT_TOL:g} × the "
+        f"sweep's largest magnitude for |δx| and |δz| (the tip is more path dependent than the angle; "
+        f"docs/reproduce.md).",
+        f"- Displacements are compared as magnitudes |δx|, |δz|, as the paper plots them; the signed values are "
+        f"in the tables (δx < 0: toward the strain-limit layer, δz < 0: downward).",
+        f"- Curling index: share of the strain-limit layer mid-line's rotation accumulated in the half nearest "
+        f"the clamp (0.5 uniform bending, toward 1 curling); the transition check needs the median of PL ≥ 10 "
+        f"to exceed that of PL ≤ 9 by {CURLING_MARGIN:g} and the largest rise between neighbouring points "
+        f"within PL 8-11.",
+        "- A range of the paper (e.g. h from 4 to 10 mm) is checked between the first and the last point run "
+        "within it, and the summary says so where they are not the paper's end points (the quick study runs "
+        "h = 4, 8, 12 mm: 4 to 10 mm is checked from 4 to 8 mm, and 10 to 12 mm, with one point, cannot be). "
+        "A part of a check is *undetermined* where such an end point failed or did not converge, or fewer "
+        "than two points lie in the range; other unusable points are skipped and named.",
+        "- A claim *disagrees* if any part of its check does, else it is *undetermined* if any part is, else "
+        "it *agrees*.",
+    ]
+
+
+def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float | None,
+                 explanations: dict[str, str] | None = None, *, workers: int | None = None,
+                 scheduler: str | None = None, base: Design | None = None) -> Path:
+    """Write ``OUT/report.md`` (atomically) and return its path.
+
+    What was run (quick or full, mesh size, points, workers, wall time, hydrojam version); per
+    sweep its figures (``figures/<sweep>_shapes.png``, ``_trends.png``, when written) and a table
+    of the points; the claims of PAPER_CLAIMS with hydrojam's numbers and verdicts, the "why" of a
+    disagreement from ``explanations`` (claim id -> text) or the claim's ``reason``; the tolerances
+    and the model differences. ``base``: the study's base design (default :func:`paper_base`).
+    """
+    out = Path(out)
+    base = base if base is not None else paper_base(quick)
+    results = check_claims(table)
+    explanations = explanations or {}
+    all_rows = [r for sw in PAPER_SWEEPS for r in rows_of(table, sw.name)]
+    by_key = {}
+    for r in all_rows:
+        by_key.setdefault(r.get("key") or id(r), r)
+    n_points = len(by_key)
+    compute = sum(number(r.get("wall_time_s")) or 0.0 for r in by_key.values())
+    counts = {s: sum(1 for r in by_key.values() if point_status(r) == s) for s in ("ok", "not_converged", "failed")}
+    verdicts = {v: sum(1 for c in results if c.verdict == v) for v in ("agree", "disagree", "undetermined")}
+
+    L = ["# hydrojam reproduction of Chen, Schott & Jovanova, Section IV (Figs. 6-11)", ""]
+    L += ["## What was run", ""]
+    L += [f"- Study: **{'quick' if quick else 'full'}** (`hydrojam reproduce{' --quick' if quick else ''}`), "
+          f"hydrojam {__version__}.",
+          f"- Base design: the default (PL {base.particle_layers}, h = {base.strain_limit_thickness:g} mm, "
+          f"T = {base.stimulus.temperature:g} K, d = {base.particle_diameter:g} mm, frictionless), "
+          f"2D plane strain (particles are cylinders), mesh size {base.mesh.size:g} mm (quadratic triangles).",
+          ]
+    for sw in PAPER_SWEEPS:
+        vals = sorted({v for v in (number(r.get(sw.field)) for r in rows_of(table, sw.name)) if v is not None})
+        vals = vals or (sw.quick_values if quick else sw.values)
+        L.append(f"- {sw.label}: {', '.join(f'{v:g}' for v in vals)} {'' if sw.unit == 'layers' else sw.unit}"
+                 .rstrip() + f" ({sw.figures}).")
+    L += [f"- {n_points} distinct points (the base point is shared by the three sweeps): {counts['ok']} converged, "
+          f"{counts['not_converged']} not converged, {counts['failed']} failed.",
+          f"- Workers: {_workers_text(workers, scheduler)}; "
+          f"wall time {'—' if number(wall_time_s) is None else _duration(wall_time_s)}; "
+          f"compute time summed over points {_duration(compute)} (a resumed run reuses finished points).",
+          f"- Claims: {verdicts['agree']} agree, {verdicts['disagree']} disagree, "
+          f"{verdicts['undetermined']} undetermined.", ""]
+    for sw in PAPER_SWEEPS:
+        rows = rows_of(table, sw.name)
+        L += [f"## {sw.label[0].upper() + sw.label[1:]} (paper {sw.figures})", ""]
+        for name, what in zip(figure_names(sw), ("Deformed shapes", "Trends")):
+            if (out / name).is_file():
+                L += [f"![{what}: {sw.label}]({name})", ""]
+            else:
+                L += [f"*{what} figure not written ({name}).*", ""]
+        L += (_points_table(rows, sw) if rows else ["*No points of this sweep in the table.*"]) + [""]
+    L += ["## The paper's statements and hydrojam", ""]
+    L += ["| # | paper (Fig.) | hydrojam computed | verdict | why (for disagree) |", "|---|---|---|---|---|"]
+    for c in results:
+        reason = explanations.get(c.claim.id, c.claim.reason) if c.verdict == "disagree" else ""
+        L.append(f"| {c.claim.id} | {_md(c.claim.paper)} ({c.claim.figure}) | {_md(c.summary)} | "
+                 f"**{c.verdict}** | {_md(reason)} |")
+    L += ["", "The reasons given for a disagreement are hypotheses from the model differences below, not findings.",
+          "", "### How each statement is checked", ""]
+    L += [f"- **{c.id}**: {c.rule}." for c in PAPER_CLAIMS]
+    L += [""] + _tolerance_text() + [""]
+    L += ["## Model differences", ""]
+    L += [f"- {text}" for text in MODEL_DIFFERENCES] + [""]
+    text = "\n".join(L)
+    path = out / "report.md"
+    write_text_atomic(path, text)
+    return path
+
+
+def _workers_text(workers: int | None, scheduler: str | None) -> str:
+    """Who ran the points, in words."""
+    if scheduler:
+        return f"the dask scheduler at {scheduler}"
+    return f"{workers} local" if workers is not None else "local, one per CPU (default)"
+
+
+def _duration(seconds: float | None) -> str:
+    """A duration in s, min or h, whichever reads best ("—" for none)."""
+    s = number(seconds)
+    if s is None:
+        return "—"
+    if s < 120:
+        return f"{s:.0f} s"
+    if s < 7200:
+        return f"{s / 60:.1f} min"
+    return f"{s / 3600:.2f} h"
+

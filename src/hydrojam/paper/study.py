@@ -1,0 +1,104 @@
+"""The paper's Section IV study (Chen, Schott & Jovanova, Figs. 6-11): three one-parameter sweeps
+round the default design (PL 5, h 8 mm, 275 K; 2D plane strain).
+
+Temperature (Figs. 6-7), particle layers (Figs. 8-9) and strain-limit layer thickness
+(Figs. 10-11), each a :class:`PaperSweep`; :func:`paper_study` makes them one
+:class:`hydrojam.study.spec.Study`. The quick study runs a subset of the points on a coarser mesh.
+Units: mm, K.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from hydrojam.actuator.design import Design, apply_overrides, default_design
+from hydrojam.study.spec import Study, SweepSpec
+
+__all__ = [
+    "PARTICLE_LAYERS",
+    "PAPER_SWEEPS",
+    "PaperSweep",
+    "QUICK_MESH_SIZE",
+    "QUICK_PARTICLE_LAYERS",
+    "QUICK_STRAIN_LIMIT_THICKNESSES_MM",
+    "QUICK_TEMPERATURES_K",
+    "STRAIN_LIMIT_THICKNESSES_MM",
+    "TEMPERATURES_K",
+    "paper_base",
+    "paper_points",
+    "paper_study",
+    "paper_sweep",
+    "sweep_of_field",
+]
+
+#: mesh size of the quick study [mm]; the design allows at most d/4 = 4 mm
+QUICK_MESH_SIZE = 4.0
+
+TEMPERATURES_K = [275.0, 280.0, 285.0, 290.0, 295.0]
+PARTICLE_LAYERS = list(range(5, 20))
+STRAIN_LIMIT_THICKNESSES_MM = [4.0, 6.0, 8.0, 10.0, 12.0]
+
+QUICK_TEMPERATURES_K = [275.0, 285.0, 295.0]
+QUICK_PARTICLE_LAYERS = [5, 7, 9, 11, 15, 19]
+QUICK_STRAIN_LIMIT_THICKNESSES_MM = [4.0, 8.0, 12.0]
+
+
+@dataclass(frozen=True)
+class PaperSweep:
+    """One sweep of the paper's Section IV: the varied design field and how to label it."""
+
+    name: str  # sweep name, also the figures' file stem
+    field: str  # dotted design field varied
+    symbol: str  # the paper's symbol
+    label: str  # axis label without unit
+    unit: str
+    figures: str  # the paper's figures
+    values: tuple
+    quick_values: tuple
+    points_noun: str  # the swept values in words, plural ("temperatures")
+
+
+PAPER_SWEEPS: tuple[PaperSweep, ...] = (
+    PaperSweep("temperature", "stimulus.temperature", "T", "temperature T", "K", "Figs. 6-7",
+               tuple(TEMPERATURES_K), tuple(QUICK_TEMPERATURES_K), "temperatures"),
+    PaperSweep("particle_layers", "particle_layers", "PL", "particle layers PL", "layers", "Figs. 8-9",
+               tuple(PARTICLE_LAYERS), tuple(QUICK_PARTICLE_LAYERS), "layer counts"),
+    PaperSweep("strain_limit_thickness", "strain_limit_thickness", "h", "strain-limit layer thickness h", "mm",
+               "Figs. 10-11", tuple(STRAIN_LIMIT_THICKNESSES_MM), tuple(QUICK_STRAIN_LIMIT_THICKNESSES_MM),
+               "thicknesses"),
+)
+_BY_NAME = {s.name: s for s in PAPER_SWEEPS}
+_BY_FIELD = {s.field: s for s in PAPER_SWEEPS}
+
+
+def paper_sweep(name: str) -> PaperSweep:
+    """The sweep of PAPER_SWEEPS called ``name`` (KeyError if none)."""
+    return _BY_NAME[name]
+
+
+def sweep_of_field(field: str) -> PaperSweep | None:
+    """The sweep of PAPER_SWEEPS that varies the dotted design field ``field``, or None."""
+    return _BY_FIELD.get(field)
+
+
+def paper_base(quick: bool = False) -> Design:
+    """The base design of every sweep: the default (PL 5, h 8 mm, 275 K, 2D); quick: mesh
+    size QUICK_MESH_SIZE [mm]."""
+    base = default_design()
+    if quick:
+        base = apply_overrides(base, [f"mesh.size={QUICK_MESH_SIZE!r}"])
+    return base
+
+
+def paper_points(quick: bool = False) -> dict[str, dict[str, list]]:
+    """Sweep name -> {dotted design field: values}, the paper's points (quick: a subset);
+    values in the field's unit (K, layers, mm)."""
+    return {s.name: {s.field: list(s.quick_values if quick else s.values)} for s in PAPER_SWEEPS}
+
+
+def paper_study(quick: bool = False) -> Study:
+    """The Section IV study as a :class:`hydrojam.study.spec.Study` named "paper" ("paper-quick"):
+    sweeps "temperature", "particle_layers", "strain_limit_thickness" round :func:`paper_base`.
+    The base point (275 K, PL 5, h 8 mm) lies in all three."""
+    sweeps = [SweepSpec(name=name, vary=vary) for name, vary in paper_points(quick).items()]
+    return Study(name="paper-quick" if quick else "paper", base=paper_base(quick), sweeps=sweeps)

@@ -1,0 +1,112 @@
+"""The paper's statements checked by hydrojam.paper.claims on synthetic rows."""
+
+from __future__ import annotations
+
+import pytest
+from paper_synthetic import FIELDS, layer_rows, row, temperature_rows, thickness_rows, with_values
+
+from hydrojam.paper import claims as pclaims, study as pstudy
+
+
+def test_claim_ids_unique_with_reasons():
+    ids = [c.id for c in pclaims.PAPER_CLAIMS]
+    assert len(ids) == len(set(ids)) == 10
+    assert set(pclaims.DISAGREEMENT_REASONS) == set(ids)
+    assert all("likely" in text for text in pclaims.DISAGREEMENT_REASONS.values())
+    assert {c.sweep for c in pclaims.PAPER_CLAIMS} == {s.name for s in pstudy.PAPER_SWEEPS}
+
+
+@pytest.mark.parametrize("quick", [False, True])
+def test_paper_like_rows_agree(quick):
+    pts = pstudy.paper_points(quick)
+    Ts, PLs, hs = (pts[s][f] for s, f in zip(("temperature", "particle_layers", "strain_limit_thickness"), FIELDS))
+    rows = temperature_rows(Ts) + layer_rows(PLs) + thickness_rows(hs)
+    results = {r.claim.id: r for r in pclaims.check_claims(rows)}
+    expected = {"h-angle": "undetermined", "h-displacement": "undetermined"} if quick else {}
+    for cid, res in results.items():
+        assert res.verdict == expected.get(cid, "agree"), (cid, res.summary)
+        assert "nan" not in res.summary.lower()
+    if quick:
+        for cid in ("h-angle", "h-displacement"):  # 4, 8, 12 mm: nothing between 10 and 12 mm to compare
+            assert "the paper's 4 mm to 10 mm checked on the points run, 4 mm to 8 mm" in results[cid].summary
+            assert "cannot decide: fewer than 2 points run within 10 mm to 12 mm" in results[cid].summary
+
+
+def test_temperature_claims_disagree_when_bending_rises_with_T():
+    results = {r.claim.id: r for r in pclaims.check_claims(temperature_rows(sign=+1.0))}
+    assert results["T-angle"].verdict == "disagree"
+    assert results["T-displacement"].verdict == "disagree"
+    assert "+46.0°" in results["T-angle"].summary  # 75 -> 121 deg over 20 K
+    assert results["T-linear"].verdict == "agree"  # still linear
+
+
+def test_temperature_non_monotone_and_dz_dominant_disagree():
+    rows = with_values(temperature_rows(), bending_angle_deg={285.0: 90.0}, tip_dz_mm={275.0: -80.0})
+    results = {r.claim.id: r for r in pclaims.check_claims(rows)}
+    assert results["T-angle"].verdict == "disagree"
+    assert "280 K -> 285 K" in results["T-angle"].summary
+    assert results["T-dx-dominant"].verdict == "disagree"
+    assert results["T-linear"].verdict == "disagree"  # |δz| 80, 13.5, 12, ...: not a line
+
+
+def test_layer_claims_disagree():
+    PLs = pstudy.PARTICLE_LAYERS
+    rows = [row("particle_layers", "particle_layers", n, 50 + 2 * n, -(20 + 3 * n), -(5 + n), ci=0.5) for n in PLs]
+    results = {r.claim.id: r for r in pclaims.check_claims(rows)}
+    for cid in ("PL-angle", "PL-curling", "PL-dx", "PL-dz"):
+        assert results[cid].verdict == "disagree", cid
+    # the curling rise in the wrong place: at 15 -> 16 layers
+    rows = with_values(layer_rows(), curling_index={n: (0.4 if n <= 15 else 0.9) for n in PLs})
+    res = {r.claim.id: r for r in pclaims.check_claims(rows)}["PL-curling"]
+    assert res.verdict == "disagree" and "from PL 15 to 16" in res.summary
+
+
+def test_curling_index_outside_unit_interval_is_not_used():
+    """A curling index outside [0, 1] (the rotation reverses along the actuator, e.g. -1.05 or
+    2.94 where the total rotation is near zero) says neither bending nor curling: such points are
+    skipped and named, and with too few left the transition is undetermined, not agreed."""
+    PLs = pstudy.PARTICLE_LAYERS
+    ci = {n: (0.4 if n <= 9 else 0.8) for n in PLs}
+    ci.update({n: (-1.05 if n % 2 else 2.94) for n in PLs if n >= 11})
+    res = {r.claim.id: r for r in pclaims.check_claims(with_values(layer_rows(), curling_index=ci))}["PL-curling"]
+    assert res.verdict == "undetermined"
+    assert "skipped" in res.summary and res.summary.count("outside [0, 1]") == 9  # PL 11..19
+
+
+def test_thickness_claims_disagree():
+    rows = [row("strain_limit_thickness", "strain_limit_thickness", h, 100 - 5 * h, -(60 - 3 * h), -(20 - h))
+            for h in pstudy.STRAIN_LIMIT_THICKNESSES_MM]
+    results = {r.claim.id: r for r in pclaims.check_claims(rows)}
+    assert results["h-angle"].verdict == "disagree"
+    assert results["h-displacement"].verdict == "disagree"
+
+
+def test_undetermined_with_missing_failed_or_unconverged_points():
+    rows = temperature_rows()
+    rows[-1] = row("temperature", "stimulus.temperature", 295.0, 0, 0, 0, status="failed")
+    results = {r.claim.id: r for r in pclaims.check_claims(rows + layer_rows() + thickness_rows())}
+    for cid in ("T-angle", "T-displacement", "T-dx-dominant"):
+        assert results[cid].verdict == "undetermined", cid
+        assert "at 295 K: failed" in results[cid].summary
+    assert results["T-linear"].verdict == "agree"  # 4 usable points, the failed one named
+    assert "skipped 295 K (failed)" in results["T-linear"].summary
+    # not converged at the peak, and no points at all
+    rows = layer_rows()
+    rows[4] = row("particle_layers", "particle_layers", 9, 80.0, -50.0, -14.8, ci=0.4, status="not_converged")
+    results = {r.claim.id: r for r in pclaims.check_claims(rows)}
+    assert results["PL-angle"].verdict == "undetermined"
+    assert "θ at 9: not converged" in results["PL-angle"].summary
+    assert results["PL-dz"].verdict == "agree"  # does not need PL 9; skips it
+    results = {r.claim.id: r for r in pclaims.check_claims([])}
+    assert {r.verdict for r in results.values()} == {"undetermined"}
+    # a straight actuator: curling index None
+    rows = with_values(layer_rows(), curling_index={n: None for n in range(10, 20)})
+    assert {r.claim.id: r for r in pclaims.check_claims(rows)}["PL-curling"].verdict == "undetermined"
+
+
+def test_interior_failure_is_skipped_and_named():
+    rows = layer_rows()
+    rows[8] = row("particle_layers", "particle_layers", 13, 0, 0, 0, status="failed")
+    res = {r.claim.id: r for r in pclaims.check_claims(rows)}
+    assert res["PL-dx"].verdict == "agree"
+    assert "skipped 13 (failed)" in res["PL-dx"].summary

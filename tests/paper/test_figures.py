@@ -1,0 +1,46 @@
+"""The shapes and trend figures of hydrojam.paper.figures, from synthetic rows and point folders."""
+
+from __future__ import annotations
+
+import meshio
+import numpy as np
+from paper_synthetic import CORNERS, PNG_MAGIC, tri6
+
+from hydrojam.paper import figures as pfigures
+
+
+def test_plot_shapes_and_trends(study_dir, tmp_path):
+    out, table = study_dir
+    rows = table.select("temperature")
+    pfigures.plot_shapes(out, rows, "stimulus.temperature", tmp_path / "shapes.png")
+    pfigures.plot_trends(rows, "stimulus.temperature", tmp_path / "trends.png", "temperature T", "K")
+    pfigures.plot_trends(table.select("particle_layers"), "particle_layers", tmp_path / "pl.png", "particle layers PL",
+                         "layers")
+    for name in ("shapes.png", "trends.png", "pl.png"):
+        assert (tmp_path / name).read_bytes()[:8] == PNG_MAGIC
+    # a point whose final.vtu is missing gets a panel too
+    broken = [dict(rows[0], point_dir="points/nowhere")]
+    pfigures.plot_shapes(out, broken, "stimulus.temperature", tmp_path / "broken.png")
+    assert (tmp_path / "broken.png").read_bytes()[:8] == PNG_MAGIC
+
+
+def test_read_shape_moves_reference_points_by_displacement(tmp_path):
+    """A VTU in results.write_vtu's layout (reference points + displacement) is read as deformed,
+    with the reference points' bounding box as the undeformed outline."""
+    corners = np.array([[-14.1, 0.0], [10.1, 0.0], [10.1, -88.5], [-14.1, -88.5]])
+    p, c = tri6(corners, CORNERS)
+    disp = np.tile([1.5, -2.0], (len(p), 1))
+    xyz = lambda a: np.column_stack([a[:, 0], np.zeros(len(a)), a[:, 1]])  # noqa: E731
+    meshio.write(tmp_path / "final.vtu", meshio.Mesh(xyz(p), [("triangle6", c)], point_data={"displacement": xyz(disp)},
+                                                     cell_data={"body_id": [np.array([0, 1], dtype=np.int32)]}))
+    pts, tris, body, outline = pfigures._read_shape(tmp_path)
+    np.testing.assert_allclose(pts, p + disp)
+    assert tris.shape == (8, 3) and list(body) == [0] * 4 + [1] * 4
+    np.testing.assert_allclose(outline.min(axis=0), [-14.1, -88.5])
+    np.testing.assert_allclose(outline.max(axis=0), [10.1, 0.0])
+    # without a displacement field the points are taken as deformed, and there is no outline
+    meshio.write(tmp_path / "final.vtu", meshio.Mesh(xyz(p + disp), [("triangle6", c)],
+                                                     cell_data={"body_id": [np.array([0, 1], dtype=np.int32)]}))
+    pts, _, _, outline = pfigures._read_shape(tmp_path)
+    np.testing.assert_allclose(pts, p + disp)
+    assert outline is None
