@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hydrojam.actuator.metrics import metric
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of
 from hydrojam.paper.study import PaperSweep, paper_sweep
 
@@ -245,9 +246,14 @@ class _Undetermined(Exception):
 #: one part of a check: (True agree | False disagree | None undetermined, text with the numbers)
 _Part = tuple[bool | None, str]
 
-#: metric column -> (symbol, unit) in the summaries
-_QUANTITIES = {"bending_angle_deg": ("θ", "°"), "tip_dx_mm": ("δx", "mm"), "tip_dz_mm": ("δz", "mm"),
-               "curling_index": ("curling index", "")}
+#: registry units as written in the summaries
+_UNIT_TEXT = {"deg": "°", "-": ""}
+
+
+def _quantity(key: str) -> tuple[str, str]:
+    """(symbol, unit) of metric column ``key`` in the summaries, from the metric registry."""
+    m = metric(key)
+    return m.symbol or key, _UNIT_TEXT.get(m.unit, m.unit)
 
 
 @dataclass(frozen=True)
@@ -312,7 +318,7 @@ def _series(rows: Sequence[dict], sweep: PaperSweep, key: str, magnitude: bool, 
     requested: list[float] = []
     values: dict[float, float] = {}
     problems: dict[float, str] = {}
-    name, unit = _QUANTITIES.get(key, (key, ""))
+    name, unit = _quantity(key)
     for row in rows:
         p = number(row.get(sweep.field))
         if p is None:
