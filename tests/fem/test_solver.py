@@ -146,7 +146,9 @@ def test_uniaxial_tension_matches_analytic_stress_stretch_curve():
         l1 = 1.0 + s  # stretch of the 2 mm bar displaced by 2 s mm
         l2 = brentq(lambda l: _nh_principal_stress(G, K, [l1, l, l])[1], 0.3, 1.2)
         P11 = _nh_principal_stress(G, K, [l1, l2, l2])[0]
-        assert reaction / 1.0 == pytest.approx(P11, rel=1e-6)  # reference area 1 mm^2; solver rtol 1e-10
+        # reference area 1 mm^2. The reaction is known to the accepted residual: solver rtol 1e-10 x 0.05 N
+        # in play, x 1e3 at most on the stall path = 5e-9 N, 4.5e-7 of P11 >= 0.011 N (measured 4e-8)
+        assert reaction / 1.0 == pytest.approx(P11, rel=1e-6)
 
 
 # ----------------------------------------------------------------------------------------------
