@@ -108,7 +108,8 @@ def test_cell_fields_neo_hookean_cauchy_stress(model, X):
     elastomer = np.concatenate([model.mesh.cell_groups["membrane"], model.mesh.cell_groups["strain_limit_layer"]])
     got = f["cauchy_stress"][elastomer]
     assert np.allclose(got, sigma, rtol=1e-10, atol=1e-12 * np.abs(sigma).max())
-    assert np.allclose(got, np.swapaxes(got, 1, 2), rtol=0, atol=1e-15)  # symmetric
+    # symmetric: P F^T / J is symmetric only up to round-off of the stress, eps x |sigma| x a few
+    assert np.allclose(got, np.swapaxes(got, 1, 2), rtol=0, atol=1e-12 * np.abs(sigma).max())
     assert sigma[1, 1] != 0.0  # plane strain carries an out-of-plane stress
     assert np.allclose(f["von_mises_stress"][elastomer], von_mises(sigma), rtol=1e-10)
     assert np.all(f["swelling_ratio"][elastomer] == 1.0)
