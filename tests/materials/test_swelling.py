@@ -21,6 +21,7 @@ from hydrojam import (
     swelling_curve,
     transition_temperature,
 )
+from hydrojam.materials.swelling import equilibrium_stretches
 
 # DESIGN.md section 3, typed here so that a wrong default in the library is caught
 N = 0.01
@@ -206,6 +207,28 @@ def test_bistable_window_picks_lower_minimum():
         assert st.branch == ("swollen" if winner == l_hi else "collapsed")
         assert st.branch == ("swollen" if T < tr.T else "collapsed")
         assert abs(stationarity_residual(st.stretch, 0.0, T)) < 1e-9
+
+
+@pytest.mark.parametrize("T", [275.0, 295.0, 304.0, 305.5, 307.0, 315.0])
+def test_equilibrium_stretches_are_every_local_minimum(T):
+    """The one root finder (free gel, mu = 0): every local minimum of the brute-force grid, no
+    other, each stationary (the independent stationarity residual; brentq's 1e-14 in lambda times
+    a slope of order 10 is ~1e-13, so 1e-9 leaves room for any platform). In plane strain
+    (out-of-plane stretch held at lambda0) each returned stretch zeroes the independent in-plane
+    nominal stress, which rises through zero there."""
+    local, _, _ = grid_minima(0.0, T)
+    roots = equilibrium_stretches(PARAMS, 0.0, T)
+    assert len(roots) == len(local) and np.all(np.diff(roots) > 0)
+    for lam, (lam_grid, _) in zip(roots, sorted(local)):
+        assert abs(lam - lam_grid) <= 1.5 * DLAM
+        assert abs(stationarity_residual(lam, 0.0, T)) < 1e-9
+    plane = equilibrium_stretches(PARAMS, 0.0, T, held=(LAM0,))
+    assert len(plane) >= 1
+    h = 1e-6
+    for t in plane:
+        assert abs(principal_stresses([LAM0, t, t], 0.0, T)[-1]) < 1e-9
+        assert principal_stresses([LAM0, t - h, t - h], 0.0, T)[-1] < 0 < principal_stresses([LAM0, t + h, t + h], 0.0, T)[-1]
+    assert constrained_swelling(PARAMS, 0.0, T, (LAM0,)).stretch in plane
 
 
 def test_no_bistability_away_from_transition(curves):

@@ -18,34 +18,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hydrojam.materials.energies import HydrogelParams, mixing_g
+from hydrojam.materials.energies import HydrogelParams
+from hydrojam.materials.swelling import equilibrium_stretches
 
 _N_KNOTS = 65
 
 
 def _free_stretches(params: HydrogelParams, mus, Ts, dimension: int) -> np.ndarray:
     """Unconfined stretch from the dry network along a sequence of stimuli, followed by
-    continuation (the root nearest to the previous one): the branch the particles follow."""
-    lam0 = params.lambda0
-    grid = np.geomspace(1.0 + 1e-9, 60.0, 6000)
-    out, prev = [], lam0
+    continuation (the stable equilibrium nearest to the previous one): the branch the particles
+    follow. Plane strain in 2D (out-of-plane stretch held at lambda0), free in 3D."""
+    held = (params.lambda0,) if dimension == 2 else ()
+    out, prev = [], params.lambda0
     for mu, T in zip(mus, Ts):
-        if dimension == 2:  # in-plane stretches lam, out-of-plane held at lambda0 (plane strain)
-            J = grid * grid * lam0
-            f = params.n * (grid - 1.0 / grid) + grid * lam0 * mixing_g(params, J, mu, T)
-        else:
-            J = grid**3
-            f = params.n * (grid - 1.0 / grid) + grid * grid * mixing_g(params, J, mu, T)
-        ok = (J > 1.0) & np.isfinite(f)
-        k = np.flatnonzero(ok[:-1] & ok[1:] & (np.sign(f[:-1]) != np.sign(f[1:])))
-        if len(k) == 0:
-            out.append(prev)
-            continue
-        # stable roots: f rises through zero (stress grows with stretch)
-        stable = k[f[k + 1] > f[k]]
-        k = stable if len(stable) else k
-        roots = grid[k] - f[k] * (grid[k + 1] - grid[k]) / (f[k + 1] - f[k])
-        prev = float(roots[np.argmin(np.abs(np.log(roots / prev)))])
+        try:
+            roots = equilibrium_stretches(params, mu, T, held)
+        except ValueError:  # no equilibrium (unbounded swelling): the coordinate stays where it was
+            roots = np.empty(0)
+        if len(roots):
+            prev = float(roots[np.argmin(np.abs(np.log(roots / prev)))])
         out.append(prev)
     return np.asarray(out)
 

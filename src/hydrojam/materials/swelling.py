@@ -59,32 +59,49 @@ def _energy(params, mu, T, lam):
     return gel_psi(params, mu, T, I1, J, 0)[0]
 
 
-def _minima(params: HydrogelParams, mu: float, T: float, held: tuple[float, ...]):
-    """All local minima (t, J, w) of w over the free stretch t, equal in the 3 - len(held) free directions."""
+def _principal(held: tuple[float, ...], t) -> np.ndarray:
+    """Principal stretches (len(t), 3): the held ones, then t in each of the 3 - len(held) free directions."""
+    t = np.atleast_1d(t)
+    k = 3 - len(held)
+    return np.concatenate([np.broadcast_to(held, (t.size, len(held))), np.repeat(t[:, None], k, 1)], 1)
+
+
+def equilibrium_stretches(params: HydrogelParams, mu: float, T: float, held=()) -> np.ndarray:
+    """Every stable stationary free stretch of the gel at (mu [k_B T], T [K]), ascending [-, dry reference].
+
+    ``held`` are principal stretches held fixed (dry reference); the 3 - len(held) others are free
+    and equal, t: ``()`` free swelling, ``(lambda0,)`` plane strain (out-of-plane stretch held at
+    the as-prepared lambda0), ``(l1, l2)`` a layer bonded to a rigid substrate. A returned t makes
+    the free directions' nominal stress zero where it rises through zero, i.e. t is a local
+    minimum of the energy over the free stretch (two of them in the bistable window of the volume
+    phase transition). Each sign change on a fine logarithmic grid of J - 1 (1e-9 to ``J_MAX``)
+    is refined by Brent's method to 1e-14. Raises ValueError where the gel swells without bound.
+    """
+    held = tuple(held)
     k = 3 - len(held)
     if k == 3 and mu > 0:  # w ~ 3n/2 l^2 - mu l^3 -> -inf: a free gel swells without bound
         raise ValueError(f"no equilibrium: a free gel swells without bound at mu={mu} kT > 0 (mu must be <= 0)")
     Ph = float(np.prod(held)) if held else 1.0
-    J = 1.0 + _GRID
-
-    def stretches(t):
-        t = np.atleast_1d(t)
-        return np.concatenate([np.broadcast_to(held, (t.size, len(held))), np.repeat(t[:, None], k, 1)], 1)
 
     def s_free(t):
-        return nominal_stresses(params, stretches(t), mu, T)[:, -1]
+        return nominal_stresses(params, _principal(held, t), mu, T)[:, -1]
 
-    t = (J / Ph) ** (1.0 / k)
+    t = ((1.0 + _GRID) / Ph) ** (1.0 / k)
     s = s_free(t)
     if s[-1] < 0:
         raise ValueError(
             f"no equilibrium: the gel swells without bound at mu={mu} kT, T={T} K (mu must be <= 0)"
         )
-    found = []
-    for i in np.nonzero((s[:-1] < 0) & (s[1:] >= 0))[0]:
-        tm = brentq(lambda x: s_free(x)[0], t[i], t[i + 1], xtol=1e-14, rtol=1e-14)
-        found.append((tm, Ph * tm**k, float(_energy(params, mu, T, stretches(tm))[0])))
-    return found
+    return np.array([brentq(lambda x: s_free(x)[0], t[i], t[i + 1], xtol=1e-14, rtol=1e-14)
+                     for i in np.nonzero((s[:-1] < 0) & (s[1:] >= 0))[0]])
+
+
+def _minima(params: HydrogelParams, mu: float, T: float, held: tuple[float, ...]):
+    """All local minima (t, J, w) of w over the free stretch t, equal in the 3 - len(held) free directions."""
+    k = 3 - len(held)
+    Ph = float(np.prod(held)) if held else 1.0
+    return [(tm, Ph * tm**k, float(_energy(params, mu, T, _principal(held, tm))[0]))
+            for tm in map(float, equilibrium_stretches(params, mu, T, held))]
 
 
 def _equilibrium(params, mu, T, held, T_c):
