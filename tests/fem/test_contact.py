@@ -139,7 +139,7 @@ def _jam_problem(m, walls, n_particles, T=275.0):
         [m.cell_groups[f"p{k}"] for k in range(n_particles)])
     wall_cells = np.setdiff1d(np.arange(m.n_cells), gel_cells)
     wall = NeoHookean(shear_modulus=100.0)
-    S = Solid(m.points, [Block(m.cells[gel_cells], el, GEL), Block(m.cells[wall_cells], el, wall)])
+    S = Solid(m.points, [Block(m.cells[gel_cells], el, GEL, "gel"), Block(m.cells[wall_cells], el, wall, "walls")])
     comp = np.full(m.n_nodes, 1000)  # the walls: one rigid component
     for k in range(n_particles):
         name = f"disks/disk{k}" if "disks" in m.cell_groups else f"p{k}"
@@ -148,7 +148,7 @@ def _jam_problem(m, walls, n_particles, T=275.0):
     C = Contact(m.points, m.boundary_facets(), comp, ContactSettings(dhat=0.01, kappa=10 * GEL.shear_modulus_ref))
 
     def terms(s):
-        return [S.with_materials([GEL.at(PARAMS.mu0 * (1 - s), PARAMS.T0 + s * (T - PARAMS.T0)), wall]), C]
+        return [S.with_materials({"gel": GEL.at(PARAMS.mu0 * (1 - s), PARAMS.T0 + s * (T - PARAMS.T0))}), C]
 
     prob = Problem(m.points, terms, [fixed(wall_nodes, m.dim)], force_scale=GEL.shear_modulus_ref)
     return S, C, prob, gel_cells, wall_nodes
@@ -204,7 +204,7 @@ def test_gel_disks_jam_in_a_rigid_box_2d():
 
     el = etype(m.cell_type)
     _, dv = physical_gradients(el, x[m.cells[gel_cells]])
-    Jdry = PARAMS.lambda0**3 * np.linalg.det(S.deformation_gradients(x)[0])
+    Jdry = PARAMS.lambda0**3 * np.linalg.det(S.deformation_gradients(x)["gel"])
     _, dV = physical_gradients(el, m.points[m.cells[gel_cells]])
     assert (dv / Jdry).sum() == pytest.approx(dV.sum() / PARAMS.lambda0**3, rel=1e-9)
     assert dv.sum() > 3.0 * dV.sum()  # and the gel did swell

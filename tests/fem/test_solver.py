@@ -29,7 +29,7 @@ GEL = Hydrogel(PARAMS)
 
 
 def solid(mesh, material):
-    return Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), material)])
+    return Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), material, "body")])
 
 
 def stimulus(s, T_target=275.0, mu_target=0.0):
@@ -38,7 +38,7 @@ def stimulus(s, T_target=275.0, mu_target=0.0):
 
 
 def gel_terms(S, **kw):
-    return lambda s: [S.with_materials([GEL.at(*stimulus(s, **kw))])]
+    return lambda s: [S.with_materials({"body": GEL.at(*stimulus(s, **kw))})]
 
 
 # ----------------------------------------------------------------------------------------------
