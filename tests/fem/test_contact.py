@@ -58,6 +58,14 @@ def test_default_settings_scale_with_mesh_and_modulus():
         ContactSettings(dhat=0.0, kappa=1.0)
 
 
+@pytest.mark.parametrize("value", ["abc", "0", "-1"])
+def test_invalid_ipc_thread_counts_are_refused_by_name(monkeypatch, value):
+    m = merge({"a": rectangle(1.0, 1.0, 0.5), "b": rectangle(1.0, 1.0, 0.5, origin=(0.0, 1.5))})
+    monkeypatch.setenv("HYDROJAM_IPC_THREADS", value)
+    with pytest.raises(ValueError, match="HYDROJAM_IPC_THREADS must be a positive integer"):
+        Contact(m.points, m.boundary_facets(), components_of(m, ["a", "b"]), ContactSettings(0.01, 1.0))
+
+
 def test_hertz_cylinder_on_flat_plane_strain():
     """Hertz, plane strain: a cylinder (R = 10 mm) pressed on a rigid flat by force P per unit
     length has contact half-width a = sqrt(4 P R / (pi E*)), E* = E / (1 - nu^2). The half-width is

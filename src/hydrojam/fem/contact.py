@@ -20,19 +20,15 @@ is a body, or bodies bonded by shared nodes) can collide.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import ipctk
 import numpy as np
 import scipy.sparse as sp
 
+from hydrojam.fem._env import positive_int
 from hydrojam.fem.terms import EnergyTerm
 
-# ipctk's parallel sums change the barrier gradient and Hessian in the last bits from call to call
-# on 2 threads, which jammed load paths amplify (identical runs took 553, 359 and 408 Newton
-# iterations; 429 every time on one thread, at no measurable cost): reproducible by default.
-ipctk.set_num_threads(int(os.environ.get("HYDROJAM_IPC_THREADS", "1")))
 
 # corner/mid-node splits of quadratic facets into straight primitives (meshio facet order)
 _SPLIT = {
@@ -130,6 +126,11 @@ class Contact(EnergyTerm):
 
     def __init__(self, X: np.ndarray, facets: np.ndarray, components: np.ndarray, settings: ContactSettings,
                  name: str = "contact"):
+        # ipctk's parallel sums change the barrier gradient and Hessian in the last bits from call
+        # to call on 2 threads, which jammed load paths amplify (identical runs took 553, 359 and
+        # 408 Newton iterations; 429 every time on one thread, at no measurable cost):
+        # reproducible by default. HYDROJAM_IPC_THREADS: a positive integer.
+        ipctk.set_num_threads(positive_int("HYDROJAM_IPC_THREADS", 1))
         self.name = name
         self.X = np.asarray(X, dtype=float)
         self.dim = self.X.shape[1]
