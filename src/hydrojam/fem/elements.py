@@ -38,7 +38,6 @@ __all__ = [
     "quadrature",
 ]
 
-_REFERENCE_MEASURE = {"line": 1.0, "triangle": 0.5, "tetrahedron": 1.0 / 6.0}
 _SHAPE_OF_DIM = {1: "line", 2: "triangle", 3: "tetrahedron"}
 
 
@@ -187,11 +186,6 @@ class ReferenceElement:
     def nen(self) -> int:
         """Number of element nodes."""
         return self.nodes.shape[0]
-
-    @property
-    def nq(self) -> int:
-        """Number of quadrature points of the default rule."""
-        return self.quad_points.shape[0]
 
     def _xi(self, xi: np.ndarray) -> np.ndarray:
         return np.asarray(xi, dtype=float).reshape(-1, self.dim)

@@ -16,10 +16,6 @@ from hydrojam.fem.newton import NewtonOptions, NewtonResult, NewtonStatus, Timin
 from hydrojam.fem.problem import Problem
 
 
-class ConvergenceError(RuntimeError):
-    """The load path could not be followed: raised only on request (``raise_on_failure``)."""
-
-
 @dataclass(frozen=True)
 class PathOptions:
     """Adaptive load stepping in s: grow ``grow``x after easy steps (<= ``easy_iterations``),
@@ -60,7 +56,6 @@ class PathResult:
     converged: bool  # reached s = 1
     message: str
     history: list[StepRecord]
-    states: list[tuple[float, np.ndarray]]  # (s, x) of every accepted step, when kept
     timings: Timings
     rejected_steps: int
 
@@ -102,39 +97,32 @@ def _predictor(problem, terms, x, x_bc, free, solver):
 def solve_path(
     problem: Problem,
     options: PathOptions = PathOptions(),
-    x0: np.ndarray | None = None,
-    keep_states: bool = False,
     callback: Callable[[float, np.ndarray, StepRecord], None] | None = None,
-    raise_on_failure: bool = False,
     on_attempt: Callable[[float, float, NewtonResult], None] | None = None,
 ) -> PathResult:
-    """Follow s from 0 to 1 in adaptive increments, each an energy minimisation.
+    """Follow s from 0 to 1 in adaptive increments, each an energy minimisation, from the
+    reference positions.
 
-    On failure below the minimum increment, returns (or raises, on request) with the last
-    converged state and a message saying where and why. ``callback(s, x, record)`` runs after
+    On failure below the minimum increment, returns with the last converged state and a message
+    saying where and why. ``callback(s, x, record)`` runs after
     every accepted step, ``on_attempt(s_try, ds, newton_result)`` after every attempt (progress).
     Every term's ``begin_step`` runs at the start of every step.
     """
     solver = LinearSolver(options.newton.linear_solver)
     free = problem.free_mask()
     shape = problem.X.shape
-    x = (problem.X if x0 is None else np.asarray(x0, dtype=float)).ravel().copy()
+    x = problem.X.ravel().copy()
     problem.apply_dirichlet(x, 0.0)
     tm = Timings()
     history: list[StepRecord] = []
-    states: list[tuple[float, np.ndarray]] = []
     # equilibrate at s = 0 first (a no-op for a stress-free reference)
     s, ds, rejected = 0.0, options.ds0, 0
     res0 = minimize(problem.terms(0.0), x.reshape(shape), free, problem.force_scale, options.newton, solver)
     tm.add(res0.timings)
     if not res0.converged:
         msg = f"could not equilibrate the initial state (s = 0): {res0.message}"
-        if raise_on_failure:
-            raise ConvergenceError(msg)
-        return PathResult(x.reshape(shape), 0.0, False, msg, history, states, tm, 0)
+        return PathResult(x.reshape(shape), 0.0, False, msg, history, tm, 0)
     x = res0.x.ravel().copy()
-    if keep_states:
-        states.append((0.0, res0.x.copy()))
     message = "converged"
     newton, last_resort = options.newton, False
     while s < 1.0 - options.end_tolerance:
@@ -161,8 +149,6 @@ def solve_path(
             x = res.x.ravel().copy()
             rec = StepRecord(s, ds, res.iterations, res.residual, res.energy, time.perf_counter() - t0)
             history.append(rec)
-            if keep_states:
-                states.append((s, res.x.copy()))
             if callback is not None:
                 callback(s, res.x, rec)
             if res.iterations <= options.easy_iterations:
@@ -181,7 +167,5 @@ def solve_path(
                     f"load step failed at s = {s_try:.6g} (increment {2 * ds:.3g} < minimum {options.ds_min:g}): "
                     f"{res.message}; last converged state kept at s = {s:.6g}"
                 )
-                if raise_on_failure:
-                    raise ConvergenceError(message)
-                return PathResult(x.reshape(shape), s, False, message, history, states, tm, rejected)
-    return PathResult(x.reshape(shape), s, True, message, history, states, tm, rejected)
+                return PathResult(x.reshape(shape), s, False, message, history, tm, rejected)
+    return PathResult(x.reshape(shape), s, True, message, history, tm, rejected)

@@ -16,19 +16,17 @@ from hydrojam.fem.terms import EnergyTerm
 
 @dataclass(frozen=True)
 class Dirichlet:
-    """Prescribed DOFs: x[dof] = X[dof] + ramp(s) * displacement [mm] (ramp(s) = s by default).
+    """Prescribed DOFs: x[dof] = X[dof] + s * displacement [mm] at load parameter s.
 
     ``dofs`` index the flat position vector (dof = node*d + component).
     """
 
     dofs: np.ndarray
     displacement: np.ndarray
-    ramp: Callable[[float], float] | None = None
 
     def values(self, X_flat: np.ndarray, s: float) -> np.ndarray:
         """Prescribed positions [mm] of ``dofs`` at load parameter s, from the flat reference X."""
-        r = s if self.ramp is None else self.ramp(s)
-        return X_flat[self.dofs] + r * self.displacement
+        return X_flat[self.dofs] + s * self.displacement
 
 
 def fixed(nodes, dim: int, components: Sequence[int] | None = None) -> Dirichlet:
@@ -39,10 +37,10 @@ def fixed(nodes, dim: int, components: Sequence[int] | None = None) -> Dirichlet
     return Dirichlet(dofs, np.zeros(len(dofs)))
 
 
-def prescribed(nodes, dim: int, component: int, displacement: float, ramp=None) -> Dirichlet:
-    """Move component ``component`` of ``nodes`` by ``displacement`` [mm] at s = 1 (linear ramp)."""
+def prescribed(nodes, dim: int, component: int, displacement: float) -> Dirichlet:
+    """Move component ``component`` of ``nodes`` by ``displacement`` [mm] at s = 1 (linear in s)."""
     nodes = np.asarray(nodes, dtype=np.int64)
-    return Dirichlet(nodes * dim + component, np.full(len(nodes), float(displacement)), ramp)
+    return Dirichlet(nodes * dim + component, np.full(len(nodes), float(displacement)))
 
 
 @dataclass(frozen=True)

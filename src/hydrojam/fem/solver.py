@@ -6,11 +6,10 @@ name lives in the module of its concept.
 """
 
 from hydrojam.fem.newton import NewtonOptions, NewtonResult, NewtonStatus, Timings, minimize
-from hydrojam.fem.path import ConvergenceError, PathOptions, PathResult, StepRecord, solve_path
+from hydrojam.fem.path import PathOptions, PathResult, StepRecord, solve_path
 from hydrojam.fem.problem import Dirichlet, Problem, fixed, prescribed
 
 __all__ = [
-    "ConvergenceError",
     "Dirichlet",
     "NewtonOptions",
     "NewtonResult",
