@@ -12,7 +12,7 @@ Reference simplices: ``[0, 1]``, the triangle ``(0,0), (1,0), (0,1)`` and the te
 ``det J > 0`` (counterclockwise triangles, right-handed tets).
 
 Facets (``ReferenceElement.facets``): triangles ``(0,1), (1,2), (2,0)``; tets ``(0,2,1), (0,1,3),
-(0,3,2), (1,2,3)`` (the table of :mod:`hydrojam.fem.mesh`); local nodes are listed corners first, then
+(0,3,2), (1,2,3)`` (:mod:`hydrojam.fem.mesh` uses these tables); local nodes are listed corners first, then
 mid-edge nodes in the facet element's own order, oriented so the normal of :func:`facet_measure`
 points out of a positively oriented element. Line elements list their two end points as facets.
 
@@ -232,7 +232,7 @@ _EDGES = {
     2: [(0, 1), (1, 2), (2, 0)],
     3: [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)],
 }
-# Facet corners, ordered so the normal points outward (same table as hydrojam.fem.mesh).
+# Facet corners, ordered so the normal points outward (hydrojam.fem.mesh uses this table).
 _FACET_CORNERS = {
     1: [(0,), (1,)],
     2: [(0, 1), (1, 2), (2, 0)],
