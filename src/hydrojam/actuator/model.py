@@ -1,9 +1,9 @@
-"""The actuator model: a :class:`~hydrojam.design.Design` turned into bodies, materials, the clamp
-and contact (DESIGN.md sections 4-6), and the measurements taken on a state (section 7).
+"""The actuator model: a :class:`~hydrojam.actuator.design.Design` turned into bodies, materials,
+the clamp and contact (DESIGN.md sections 4-6), and the measurements taken on a state (section 7).
 
-Data flow: design -> geometry and mesh (gmsh, in ``_gmsh``) -> :class:`ActuatorModel` (this
-module) -> :func:`hydrojam.simulate.simulate`. Lengths mm, stresses MPa, forces N/mm (2D, per unit
-depth).
+Data flow: design -> geometry and mesh (gmsh, in ``actuator.geometry`` and ``fem.meshing``) ->
+:class:`ActuatorModel` (this module) -> :func:`hydrojam.actuator.simulate.simulate`. Lengths mm,
+stresses MPa, forces N/mm (2D, per unit depth).
 """
 
 from __future__ import annotations

@@ -35,7 +35,7 @@ ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=3
 @dataclass(frozen=True)
 class StepState:
     """One accepted equilibrium: load parameter s, stimulus (mu [k_B T], T [K]), positions
-    x (n, 2) [mm], metrics (see :func:`hydrojam.model.measure`), Newton iterations of the step
+    x (n, 2) [mm], metrics (see :func:`hydrojam.actuator.model.measure`), Newton iterations of the step
     and the wall time since the start [s]."""
 
     index: int
@@ -160,7 +160,7 @@ def simulate(
     non-convergence: the result says so and keeps the last converged state.
 
     ``stabilization``: viscous damping c = stabilization x G_membrane / d [N/mm^3] of every
-    node's motion within a load step (:class:`hydrojam.terms.ViscousStabilization`), released at
+    node's motion within a load step (:class:`hydrojam.fem.terms.ViscousStabilization`), released at
     s = 1 so that the final state is an equilibrium without it (0: none). The final state
     replaces the last stabilised one in ``states`` (same index, passed to ``on_step`` again).
     """
