@@ -30,6 +30,12 @@ from hydrojam.fem._env import positive_int
 from hydrojam.fem.terms import EnergyTerm
 
 
+# ipctk's parallel sums change the barrier gradient and Hessian in the last bits from call to call
+# on 2 threads, which jammed load paths amplify (identical runs took 553, 359 and 408 Newton
+# iterations; 429 every time on one thread, at no measurable cost): reproducible by default.
+# HYDROJAM_IPC_THREADS (a positive integer) overrides, read once at import.
+ipctk.set_num_threads(positive_int("HYDROJAM_IPC_THREADS", 1))
+
 # corner/mid-node splits of quadratic facets into straight primitives (meshio facet order)
 _SPLIT = {
     2: np.array([[0, 1]]),
@@ -126,11 +132,6 @@ class Contact(EnergyTerm):
 
     def __init__(self, X: np.ndarray, facets: np.ndarray, components: np.ndarray, settings: ContactSettings,
                  name: str = "contact"):
-        # ipctk's parallel sums change the barrier gradient and Hessian in the last bits from call
-        # to call on 2 threads, which jammed load paths amplify (identical runs took 553, 359 and
-        # 408 Newton iterations; 429 every time on one thread, at no measurable cost):
-        # reproducible by default. HYDROJAM_IPC_THREADS: a positive integer.
-        ipctk.set_num_threads(positive_int("HYDROJAM_IPC_THREADS", 1))
         self.name = name
         self.X = np.asarray(X, dtype=float)
         self.dim = self.X.shape[1]
