@@ -117,7 +117,7 @@ def cases(dim: int, max_dofs: float) -> list[Case]:
 
 
 def make_solid(mesh: Mesh) -> Solid:
-    return Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), GEL)])
+    return Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), GEL, "gel")])
 
 
 def bonded_layer_bcs(mesh: Mesh) -> list[Dirichlet]:
@@ -256,7 +256,7 @@ def swelling_terms(solid: Solid):
     def terms(s: float):
         mu = PARAMS.mu0 * (1.0 - s) + s * MU_TARGET
         T = PARAMS.T0 + s * (T_TARGET - PARAMS.T0)
-        return [solid.with_materials([GEL.at(mu, T)])]
+        return [solid.with_materials({"gel": GEL.at(mu, T)})]
 
     return terms
 
@@ -267,7 +267,7 @@ def measure_swelling(case: Case) -> dict:
     thickness = float(np.ptp(mesh.points[:, 1]))
     # force scale: the network shear modulus acting over the layer thickness [N/mm]
     problem = Problem(mesh.points, swelling_terms(solid), bonded_layer_bcs(mesh),
-                      force_scale=GEL.shear_modulus_ref * thickness, length_scale=case.size)
+                      force_scale=GEL.shear_modulus_ref * thickness)
     t0 = time.perf_counter()
     res = solve_path(problem, PathOptions())
     wall = time.perf_counter() - t0

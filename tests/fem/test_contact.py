@@ -1,6 +1,10 @@
 """Verification of IPC contact (issue: contact). Each test names the analytic result it uses, and
 every contact test checks, at every accepted state, that no two bodies interpenetrate."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -56,6 +60,16 @@ def test_default_settings_scale_with_mesh_and_modulus():
     assert 0.0005 < st.dhat < 0.002
     with pytest.raises(ValueError, match="dhat"):
         ContactSettings(dhat=0.0, kappa=1.0)
+
+
+@pytest.mark.parametrize("value", ["abc", "0", "-1"])
+def test_invalid_ipc_thread_counts_are_refused_by_name(value):
+    """HYDROJAM_IPC_THREADS is read when the module is imported: in a fresh interpreter."""
+    env = {**os.environ, "HYDROJAM_IPC_THREADS": value}
+    run = subprocess.run([sys.executable, "-c", "import hydrojam.fem.contact"], env=env,
+                         capture_output=True, text=True)
+    assert run.returncode != 0
+    assert "ValueError: HYDROJAM_IPC_THREADS must be a positive integer" in run.stderr
 
 
 def test_hertz_cylinder_on_flat_plane_strain():
@@ -139,7 +153,7 @@ def _jam_problem(m, walls, n_particles, T=275.0):
         [m.cell_groups[f"p{k}"] for k in range(n_particles)])
     wall_cells = np.setdiff1d(np.arange(m.n_cells), gel_cells)
     wall = NeoHookean(shear_modulus=100.0)
-    S = Solid(m.points, [Block(m.cells[gel_cells], el, GEL), Block(m.cells[wall_cells], el, wall)])
+    S = Solid(m.points, [Block(m.cells[gel_cells], el, GEL, "gel"), Block(m.cells[wall_cells], el, wall, "walls")])
     comp = np.full(m.n_nodes, 1000)  # the walls: one rigid component
     for k in range(n_particles):
         name = f"disks/disk{k}" if "disks" in m.cell_groups else f"p{k}"
@@ -148,7 +162,7 @@ def _jam_problem(m, walls, n_particles, T=275.0):
     C = Contact(m.points, m.boundary_facets(), comp, ContactSettings(dhat=0.01, kappa=10 * GEL.shear_modulus_ref))
 
     def terms(s):
-        return [S.with_materials([GEL.at(PARAMS.mu0 * (1 - s), PARAMS.T0 + s * (T - PARAMS.T0)), wall]), C]
+        return [S.with_materials({"gel": GEL.at(PARAMS.mu0 * (1 - s), PARAMS.T0 + s * (T - PARAMS.T0))}), C]
 
     prob = Problem(m.points, terms, [fixed(wall_nodes, m.dim)], force_scale=GEL.shear_modulus_ref)
     return S, C, prob, gel_cells, wall_nodes
@@ -207,7 +221,7 @@ def test_gel_disks_jam_in_a_rigid_box_2d():
 
     el = etype(m.cell_type)
     _, dv = physical_gradients(el, x[m.cells[gel_cells]])
-    Jdry = PARAMS.lambda0**3 * np.linalg.det(S.deformation_gradients(x)[0])
+    Jdry = PARAMS.lambda0**3 * np.linalg.det(S.deformation_gradients(x)["gel"])
     _, dV = physical_gradients(el, m.points[m.cells[gel_cells]])
     assert (dv / Jdry).sum() == pytest.approx(dV.sum() / PARAMS.lambda0**3, rel=1e-9)
     assert dv.sum() > 3.0 * dV.sum()  # and the gel did swell

@@ -4,6 +4,7 @@ Every test names the analytic or independent result it compares with.
 """
 
 import numpy as np
+import scipy.sparse as sp
 import pytest
 from scipy.optimize import brentq
 
@@ -29,7 +30,7 @@ GEL = Hydrogel(PARAMS)
 
 
 def solid(mesh, material):
-    return Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), material)])
+    return Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), material, "body")])
 
 
 def stimulus(s, T_target=275.0, mu_target=0.0):
@@ -38,7 +39,7 @@ def stimulus(s, T_target=275.0, mu_target=0.0):
 
 
 def gel_terms(S, **kw):
-    return lambda s: [S.with_materials([GEL.at(*stimulus(s, **kw))])]
+    return lambda s: [S.with_materials({"body": GEL.at(*stimulus(s, **kw))})]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -291,3 +292,75 @@ def test_unreachable_load_keeps_last_converged_state_and_says_so():
     assert np.all(np.isfinite(res.x))
     assert np.isfinite(S.energy(res.x))
     assert res.history and res.history[-1].s == res.s
+
+
+# ----------------------------------------------------------------------------------------------
+# Contracts: the term protocol, named blocks, the Newton status
+
+
+def test_a_term_gets_the_documented_defaults_of_the_protocol():
+    """Only energy, gradient and hessian are required; the optional parts have their defaults."""
+    from hydrojam.fem.terms import EnergyTerm
+
+    class Quadratic(EnergyTerm):
+        name = "quadratic"
+
+        def energy(self, x):
+            return 0.5 * float(np.sum(x * x))
+
+        def gradient(self, x):
+            return np.ravel(x).copy()
+
+        def hessian(self, x, project=False):
+            return sp.identity(np.size(x), format="csr")
+
+    t, x = Quadratic(), np.ones((2, 2))
+    assert t.max_step(x, x) == 1.0 and t.begin_step(x) is None and t.fallback_projection is False
+    assert np.array_equal(t.force_flux(x), t.gradient(x))
+
+    class Incomplete(EnergyTerm):
+        def energy(self, x):
+            return 0.0
+
+    with pytest.raises(TypeError):
+        Incomplete()
+
+
+def test_terms_and_blocks_are_addressed_by_name():
+    from hydrojam.fem.terms import LinearTerm, by_name
+
+    mesh = rectangle(1.0, 1.0, 0.5, order=1)
+    el = element_for_meshio_type(mesh.cell_type)
+    half = len(mesh.cells) // 2
+    S = Solid(mesh.points, [Block(mesh.cells[:half], el, GEL, "gel"), Block(mesh.cells[half:], el, NeoHookean(), "wall")])
+    load = LinearTerm(np.zeros_like(mesh.points), mesh.points)
+    assert list(by_name([S, load])) == ["elastic", "load"]
+    with pytest.raises(ValueError, match="load"):
+        by_name([S, load, load])
+    softer = S.with_materials({"gel": GEL.at(0.0, 280.0)})
+    assert [b.name for b in softer.blocks] == ["gel", "wall"]
+    assert softer.blocks[1].material is S.blocks[1].material  # a block not named keeps its material
+    assert set(softer.block_energies(mesh.points)) == {"gel", "wall"}
+    assert set(S.current_volumes(mesh.points)) == set(S.deformation_gradients(mesh.points)) == {"gel", "wall"}
+    with pytest.raises(KeyError, match="membrane"):
+        S.with_materials({"membrane": GEL})
+    with pytest.raises(TypeError, match="mapping"):
+        S.with_materials([GEL, GEL])
+    with pytest.raises(ValueError, match="unique"):
+        Solid(mesh.points, [Block(mesh.cells[:half], el, GEL), Block(mesh.cells[half:], el, GEL)])
+
+
+def test_newton_reports_how_it_ended_as_a_status():
+    from hydrojam.fem.solver import NewtonStatus
+
+    mesh = rectangle(1.0, 1.0, 0.5, order=2)
+    S = solid(mesh, GEL.at(0.0, 280.0))
+    free = Problem(mesh.points, lambda s: [S], [fixed(mesh.group_nodes("bottom"), 2)]).free_mask()
+    ok = minimize([S], mesh.points, free, GEL.shear_modulus_ref)
+    assert ok.status.converged and ok.converged
+    short = minimize([S], mesh.points, free, GEL.shear_modulus_ref, NewtonOptions(max_iter=1))
+    assert short.status is NewtonStatus.MAX_ITERATIONS and not short.converged
+    assert "no convergence in 1 iterations" in short.message
+    crushed = mesh.points * np.array([1.0, -1.0])  # every cell inverted: infinite energy
+    bad = minimize([S], crushed, free, GEL.shear_modulus_ref)
+    assert bad.status is NewtonStatus.INADMISSIBLE_START and not bad.converged

@@ -1,9 +1,9 @@
-"""The actuator model: a :class:`~hydrojam.design.Design` turned into bodies, materials, the clamp
-and contact (DESIGN.md sections 4-6), and the measurements taken on a state (section 7).
+"""The actuator model: a :class:`~hydrojam.actuator.design.Design` turned into bodies, materials,
+the clamp and contact (DESIGN.md sections 4-6), and the measurements taken on a state (section 7).
 
-Data flow: design -> geometry and mesh (gmsh, in ``_gmsh``) -> :class:`ActuatorModel` (this
-module) -> :func:`hydrojam.simulate.simulate`. Lengths mm, stresses MPa, forces N/mm (2D, per unit
-depth).
+Data flow: design -> geometry and mesh (gmsh, in ``actuator.geometry`` and ``fem.meshing``) ->
+:class:`ActuatorModel` (this module) -> :func:`hydrojam.actuator.simulate.simulate`. Lengths mm,
+stresses MPa, forces N/mm (2D, per unit depth).
 """
 
 from __future__ import annotations
@@ -37,6 +37,10 @@ WALL_COMPONENT = -1  # contact component of the membrane and strain-limit layer 
 #: body ids written to results (cell data ``body_id``): particles are PARTICLE_BODY + k
 MEMBRANE_BODY, STRAIN_LIMIT_BODY, PARTICLE_BODY = 0, 1, 2
 
+#: names of the solid's blocks (= the mesh's cell groups of the membrane and the strain-limit
+#: layer; the particles' block holds every particle's cells, particle by particle)
+MEMBRANE, STRAIN_LIMIT_LAYER, PARTICLES = "membrane", "strain_limit_layer", "particles"
+
 
 def check_supported(design: Design) -> None:
     """Refuse, before any work, what the schema holds but the simulator does not do yet (3D)."""
@@ -48,8 +52,8 @@ def check_supported(design: Design) -> None:
 class ActuatorModel:
     """Everything a simulation needs, built once from a design.
 
-    ``solid`` holds three blocks (membrane, strain-limit layer, all particles) whose materials
-    :meth:`materials_at` sets for a load parameter s; ``contact`` couples the particles with each
+    ``solid`` holds three blocks, named ``MEMBRANE``, ``STRAIN_LIMIT_LAYER`` and ``PARTICLES`` (all
+    particles, in order), whose materials :meth:`materials_at` sets for a load parameter s; ``contact`` couples the particles with each
     other and with the membrane; the clamp holds every node of the top face.
     """
 
@@ -77,14 +81,15 @@ class ActuatorModel:
         """(mu [k_B T], T [K]) at load parameter s."""
         return self.path(s)
 
-    def materials_at(self, s: float) -> list[Material]:
-        """Block materials at load parameter s (the gel at the stimulus of s)."""
+    def materials_at(self, s: float) -> dict[str, Material]:
+        """Material of every block by name ("membrane", "strain_limit_layer", "particles") at load
+        parameter s (the gel at the stimulus of s)."""
         mu, T = self.path(s)
-        return [self.membrane, self.strain_limit, self.gel.at(mu, T)]
+        return {MEMBRANE: self.membrane, STRAIN_LIMIT_LAYER: self.strain_limit, PARTICLES: self.gel.at(mu, T)}
 
     def problem(self, extra_terms: tuple = ()) -> Problem:
-        """The load-path problem: elastic energy at the stimulus of s, plus contact (plus
-        ``extra_terms``, e.g. stabilisation); clamped top."""
+        """The load-path problem, clamped top: the terms "elastic" (the solid at the stimulus of
+        s) and "contact", plus ``extra_terms`` (e.g. "stabilisation"), in that order."""
         solid, contact = self.solid, self.contact
 
         def terms(s: float):
@@ -92,7 +97,7 @@ class ActuatorModel:
 
         G = self.membrane.shear_modulus_ref
         return Problem(self.mesh.points, terms, [fixed(self.clamp_nodes, 2)],
-                       force_scale=G * self.design.particle_diameter, length_scale=self.design.mesh.size)
+                       force_scale=G * self.design.particle_diameter)
 
 
 def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
@@ -115,9 +120,9 @@ def build_model(design: Design) -> ActuatorModel:
     membrane = design.membrane.material()
     strain_limit = design.strain_limit_layer.material()
     solid = Solid(mesh.points, [
-        Block(mesh.cells[mesh.cell_groups["membrane"]], el, membrane, "membrane"),
-        Block(mesh.cells[mesh.cell_groups["strain_limit_layer"]], el, strain_limit, "strain_limit_layer"),
-        Block(mesh.cells[np.concatenate(particle_cells)], el, gel, "particles"),
+        Block(mesh.cells[mesh.cell_groups[MEMBRANE]], el, membrane, MEMBRANE),
+        Block(mesh.cells[mesh.cell_groups[STRAIN_LIMIT_LAYER]], el, strain_limit, STRAIN_LIMIT_LAYER),
+        Block(mesh.cells[np.concatenate(particle_cells)], el, gel, PARTICLES),
     ])
     components = np.full(mesh.n_nodes, WALL_COMPONENT)
     body_id = np.full(mesh.n_cells, MEMBRANE_BODY)
@@ -166,7 +171,7 @@ def _signed_area(x: np.ndarray, segments: np.ndarray) -> float:
 
 def particle_areas(model: ActuatorModel, x: np.ndarray) -> np.ndarray:
     """Current area of each particle (n_particles,) [mm^2] (integrated det F over the reference)."""
-    per_cell = model.solid.current_volumes(x)[2]  # the gel block holds the particles' cells in order
+    per_cell = model.solid.current_volumes(x)[PARTICLES]  # the particles' cells, particle by particle
     bounds = np.cumsum([len(c) for c in model.particle_cells])[:-1]
     return np.array([part.sum() for part in np.split(per_cell, bounds)])
 

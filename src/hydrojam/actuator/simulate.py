@@ -15,10 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
 from hydrojam.fem.linsolve import LinearSolver
-from hydrojam.actuator.model import ActuatorModel, measure
-from hydrojam.fem.solver import NewtonOptions, PathOptions, minimize, solve_path
-from hydrojam.fem.terms import ViscousStabilization, lumped_volumes
+from hydrojam.fem.newton import NewtonOptions, minimize
+from hydrojam.fem.path import PathOptions, solve_path
+from hydrojam.fem.terms import EnergyTerm, ViscousStabilization, by_name, lumped_volumes
 
 #: viscous stabilisation c = STABILIZATION x G_membrane / d [N/mm^3] (docs/actuator.md)
 STABILIZATION = 0.01
@@ -34,7 +35,7 @@ ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=3
 @dataclass(frozen=True)
 class StepState:
     """One accepted equilibrium: load parameter s, stimulus (mu [k_B T], T [K]), positions
-    x (n, 2) [mm], metrics (see :func:`hydrojam.model.measure`), Newton iterations of the step
+    x (n, 2) [mm], metrics (see :func:`hydrojam.actuator.model.measure`), Newton iterations of the step
     and the wall time since the start [s]."""
 
     index: int
@@ -53,34 +54,46 @@ class _Clock:
     calls: int = 0
 
 
-class _Timed:
-    """An energy term that adds the time spent in it to a clock (for the time shares)."""
+class _Timed(EnergyTerm):
+    """An energy term that adds the time spent in it to a clock (for the time shares); every
+    protocol member is the wrapped term's."""
 
-    def __init__(self, term, clock: _Clock):
+    def __init__(self, term: EnergyTerm, clock: _Clock):
         self._term, self._clock = term, clock
 
-    def _timed(self, name, *args, **kw):
+    @property
+    def name(self) -> str:
+        return self._term.name
+
+    @property
+    def fallback_projection(self) -> bool:
+        return self._term.fallback_projection
+
+    def _timed(self, method, *args):
         t0 = time.perf_counter()
         try:
-            return getattr(self._term, name)(*args, **kw)
+            return method(*args)
         finally:
             self._clock.seconds += time.perf_counter() - t0
             self._clock.calls += 1
 
     def energy(self, x):
-        return self._timed("energy", x)
+        return self._timed(self._term.energy, x)
 
     def gradient(self, x):
-        return self._timed("gradient", x)
+        return self._timed(self._term.gradient, x)
 
     def hessian(self, x, project=False):
-        return self._timed("hessian", x, project)
+        return self._timed(self._term.hessian, x, project)
 
     def max_step(self, x, dx):
-        return self._timed("max_step", x, dx)
+        return self._timed(self._term.max_step, x, dx)
 
-    def __getattr__(self, name):
-        return getattr(self._term, name)
+    def begin_step(self, x):
+        return self._timed(self._term.begin_step, x)
+
+    def force_flux(self, x, gradient=None):
+        return self._timed(self._term.force_flux, x, gradient)
 
 
 @dataclass
@@ -147,7 +160,7 @@ def simulate(
     non-convergence: the result says so and keeps the last converged state.
 
     ``stabilization``: viscous damping c = stabilization x G_membrane / d [N/mm^3] of every
-    node's motion within a load step (:class:`hydrojam.terms.ViscousStabilization`), released at
+    node's motion within a load step (:class:`hydrojam.fem.terms.ViscousStabilization`), released at
     s = 1 so that the final state is an equilibrium without it (0: none). The final state
     replaces the last stabilised one in ``states`` (same index, passed to ``on_step`` again).
     """
@@ -160,11 +173,10 @@ def simulate(
         c = stabilization * model.membrane.shear_modulus_ref / model.design.particle_diameter
         stab = ViscousStabilization(w, c, mesh.dim)
     base = model.problem(() if stab is None else (stab,))
-    timed_contact = _Timed(model.contact, contact)
+    clocks = {"elastic": elastic, "contact": contact}
 
     def terms(s: float):
-        solid, _, *rest = base.terms(s)
-        return [_Timed(solid, elastic), timed_contact, *rest]
+        return [_Timed(t, clocks[t.name]) if t.name in clocks else t for t in base.terms(s)]
 
     problem = dataclasses.replace(base, terms=terms)
     states: list[StepState] = []
@@ -182,7 +194,8 @@ def simulate(
 
     def callback(s, x, rec):
         if stab is not None:
-            e_el = sum(model.solid.with_materials(model.materials_at(s)).block_energies(x)[:2])
+            energies = model.solid.with_materials(model.materials_at(s)).block_energies(x)
+            e_el = sum([energies[MEMBRANE], energies[STRAIN_LIMIT_LAYER]])  # the elastomers
             if e_el > 0:
                 ratio[0] = max(ratio[0], stab.energy(x) / e_el)
         record(s, x, rec.iterations)
@@ -249,8 +262,8 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80):
             continue
         x = res.x
         viscous = float(np.linalg.norm(stab.gradient(x)[free]))
-        in_play = float(np.linalg.norm(ts[0].force_flux(x)[free]))
-        if viscous <= max(rtol * in_play, 1e-10 * problem.force_scale):
+        in_play = float(np.linalg.norm(by_name(ts)["elastic"].force_flux(x)[free]))
+        if viscous <= max(rtol * in_play, options.newton.residual_floor * problem.force_scale):
             return x, its, True
         if res.iterations <= 20:
             scale = max(scale / 10.0, 1e-8)

@@ -10,18 +10,21 @@ material models: it only calls ``energy(F)`` and ``evaluate(F)``.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 
 from hydrojam.fem.elements import ReferenceElement, physical_gradients
+from hydrojam.fem.terms import EnergyTerm
 from hydrojam.materials.energies import Material
 
 
 @dataclass(frozen=True)
 class Block:
-    """Cells (ne, nen) of one element type and one material, in global node numbers."""
+    """Cells (ne, nen) of one element type and one material, in global node numbers; ``name``
+    addresses the block in its Solid (unique there)."""
 
     cells: np.ndarray
     element: ReferenceElement
@@ -89,13 +92,19 @@ def project_psd(K: np.ndarray) -> np.ndarray:
     return np.einsum("eij,ej,ekj->eik", V, w, V)
 
 
-class Solid:
+class Solid(EnergyTerm):
     """Elastic energy of element blocks over reference positions X (n_nodes, d) [mm]; an energy term.
 
-    In 2D (plane strain) energies are per unit thickness [mJ/mm] and forces [N/mm].
+    Blocks are addressed by their (unique) names: :meth:`with_materials` takes, and the per-block
+    results return, mappings block name -> value, in block order. In 2D (plane strain) energies
+    are per unit thickness [mJ/mm] and forces [N/mm].
     """
 
-    def __init__(self, X: np.ndarray, blocks: list[Block]):
+    def __init__(self, X: np.ndarray, blocks: list[Block], name: str = "elastic"):
+        names = [b.name for b in blocks]
+        if len(set(names)) != len(names):
+            raise ValueError(f"block names must be unique in a Solid (got {names})")
+        self.name = name
         self.X = np.asarray(X, dtype=float)
         self.blocks = list(blocks)
         self._geoms = [_block_geometry(self.X, b) for b in self.blocks]
@@ -107,29 +116,37 @@ class Solid:
     def dim(self) -> int:
         return self.X.shape[1]
 
-    def with_materials(self, materials: list[Material]) -> "Solid":
-        """The same geometry with other materials (one per block), e.g. at a new stimulus."""
+    @property
+    def block_names(self) -> list[str]:
+        """Names of the blocks, in order."""
+        return [b.name for b in self.blocks]
+
+    def with_materials(self, materials: Mapping[str, Material]) -> "Solid":
+        """The same geometry with other materials, given by block name ({name: Material}), e.g. at
+        a new stimulus; a block not named keeps its material. KeyError for an unknown name."""
+        if not isinstance(materials, Mapping):
+            raise TypeError(f"materials must be a mapping block name -> Material (got {type(materials).__name__})")
+        unknown = set(materials) - set(self.block_names)
+        if unknown:
+            raise KeyError(f"no block named {sorted(unknown)}; blocks: {self.block_names}")
         new = object.__new__(Solid)
         new.__dict__.update(self.__dict__)
-        new.blocks = [dataclasses.replace(b, material=m) for b, m in zip(self.blocks, materials)]
+        new.blocks = [dataclasses.replace(b, material=materials[b.name]) if b.name in materials else b
+                      for b in self.blocks]
         new._flux = None  # computed with the old materials
         return new
 
     def _F(self, x: np.ndarray, g: _Geometry) -> np.ndarray:
         return np.einsum("eai,eqaj->eqij", x[g.cells], g.dNdX, optimize=True)
 
-    def deformation_gradients(self, x: np.ndarray) -> list[np.ndarray]:
-        """F at every quadrature point of every block, [(ne, nq, d, d)]."""
-        return [self._F(x, g) for g in self._geoms]
+    def deformation_gradients(self, x: np.ndarray) -> dict[str, np.ndarray]:
+        """F at every quadrature point, per block name: {name: (ne, nq, d, d)}."""
+        return {b.name: self._F(x, g) for b, g in zip(self.blocks, self._geoms)}
 
-    def volumes(self) -> list[np.ndarray]:
-        """Reference volume of each cell per block [mm^3, or mm^2 in 2D]."""
-        return [g.dV.sum(axis=1) for g in self._geoms]
-
-    def current_volumes(self, x: np.ndarray) -> list[np.ndarray]:
-        """Current volume of each cell per block, the integral of det F over the reference
-        [mm^3, or mm^2 in 2D]."""
-        return [np.sum(np.linalg.det(self._F(x, g)) * g.dV, axis=1) for g in self._geoms]
+    def current_volumes(self, x: np.ndarray) -> dict[str, np.ndarray]:
+        """Current volume of each cell, per block name: {name: (ne,)}, the integral of det F over
+        the reference [mm^3, or mm^2 in 2D]."""
+        return {b.name: np.sum(np.linalg.det(self._F(x, g)) * g.dV, axis=1) for b, g in zip(self.blocks, self._geoms)}
 
     def energy(self, x: np.ndarray) -> float:
         total = 0.0
@@ -141,38 +158,31 @@ class Solid:
             total += e
         return total
 
-    def block_energies(self, x: np.ndarray) -> list[float]:
-        """Energy of each block [mJ]."""
-        return [float(np.sum(b.material.energy(self._F(x, g)) * g.dV)) for b, g in zip(self.blocks, self._geoms)]
-
-    def _element_forces(self, x: np.ndarray):
-        """(geometry, element internal forces (ne, nen, d) [N]) for every block."""
-        for b, g in zip(self.blocks, self._geoms):
-            P = b.material.evaluate(self._F(x, g), tangent=False).stress
-            yield g, np.einsum("eq,eqij,eqaj->eai", g.dV, P, g.dNdX, optimize=True)
+    def block_energies(self, x: np.ndarray) -> dict[str, float]:
+        """Energy of each block [mJ; mJ/mm in 2D], per block name."""
+        return {b.name: float(np.sum(b.material.energy(self._F(x, g)) * g.dV)) for b, g in zip(self.blocks, self._geoms)}
 
     def gradient(self, x: np.ndarray) -> np.ndarray:
         out = np.zeros(self.ndof)
         flux = np.zeros(self.ndof)
-        for g, fe in self._element_forces(x):
+        for b, g in zip(self.blocks, self._geoms):
+            P = b.material.evaluate(self._F(x, g), tangent=False).stress
+            fe = np.einsum("eq,eqij,eqaj->eai", g.dV, P, g.dNdX, optimize=True)  # element forces [N]
             out += np.bincount(g.edofs.ravel(), weights=fe.ravel(), minlength=self.ndof)
             flux += np.bincount(g.edofs.ravel(), weights=np.abs(fe).ravel(), minlength=self.ndof)
         self._flux = (np.asarray(x).tobytes(), flux)  # the solver asks for it at the same x next
         return out
 
-    def force_flux(self, x: np.ndarray) -> np.ndarray:
+    def force_flux(self, x: np.ndarray, gradient: np.ndarray | None = None) -> np.ndarray:
         """Nodal sums of |element internal forces| [N], per DOF: the forces flowing through the
-        body without the cancellation of assembly (large in a swollen body whose net force is 0)."""
+        body without the cancellation of assembly (large in a swollen body whose net force is 0).
+        ``gradient`` is not needed."""
         if self._flux is None or self._flux[0] != np.asarray(x).tobytes():
             self.gradient(x)
         return self._flux[1]
 
-    def element_forces(self, x: np.ndarray) -> list[np.ndarray]:
-        """Internal nodal forces of every element, per block [(ne, nen, d)] [N]."""
-        return [fe for _, fe in self._element_forces(x)]
-
     def element_hessians(self, x: np.ndarray, project: bool = False) -> list[np.ndarray]:
-        """Element stiffness matrices per block, [(ne, nen*d, nen*d)] [N/mm]."""
+        """Element stiffness matrices per block, in block order [(ne, nen*d, nen*d)] [N/mm]."""
         out = []
         for b, g in zip(self.blocks, self._geoms):
             A = b.material.evaluate(self._F(x, g), tangent=True).tangent
@@ -184,6 +194,3 @@ class Solid:
 
     def hessian(self, x: np.ndarray, project: bool = False) -> sp.csr_matrix:
         return self._pat.matrix(self.element_hessians(x, project))
-
-    def max_step(self, x: np.ndarray, dx: np.ndarray) -> float:
-        return 1.0

@@ -20,17 +20,21 @@ is a body, or bodies bonded by shared nodes) can collide.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import ipctk
 import numpy as np
 import scipy.sparse as sp
 
+from hydrojam.fem._env import positive_int
+from hydrojam.fem.terms import EnergyTerm
+
+
 # ipctk's parallel sums change the barrier gradient and Hessian in the last bits from call to call
 # on 2 threads, which jammed load paths amplify (identical runs took 553, 359 and 408 Newton
 # iterations; 429 every time on one thread, at no measurable cost): reproducible by default.
-ipctk.set_num_threads(int(os.environ.get("HYDROJAM_IPC_THREADS", "1")))
+# HYDROJAM_IPC_THREADS (a positive integer) overrides, read once at import.
+ipctk.set_num_threads(positive_int("HYDROJAM_IPC_THREADS", 1))
 
 # corner/mid-node splits of quadratic facets into straight primitives (meshio facet order)
 _SPLIT = {
@@ -113,14 +117,22 @@ def _component_filter(components: np.ndarray):
     return ipctk.make_connected_components_filter(np.asfortranarray(np.concatenate(chain).astype(np.int32)))
 
 
-class Contact:
+class Contact(EnergyTerm):
     """IPC barrier (and optional lagged friction) between the boundaries of different components.
 
     X: reference positions (n_nodes, d) [mm]; facets: boundary facets (nf, nfn) in full node numbers
     (meshio order, outward); components: (n_nodes,) component id of every node.
+
+    Its Hessian is exact (not projected) unless the solver asks: projecting the barrier Hessian
+    always doubled Newton iterations and failed a Hertz test; ``fallback_projection`` lets the
+    solver project it when the exact Hessian gives no descent.
     """
 
-    def __init__(self, X: np.ndarray, facets: np.ndarray, components: np.ndarray, settings: ContactSettings):
+    fallback_projection = True
+
+    def __init__(self, X: np.ndarray, facets: np.ndarray, components: np.ndarray, settings: ContactSettings,
+                 name: str = "contact"):
+        self.name = name
         self.X = np.asarray(X, dtype=float)
         self.dim = self.X.shape[1]
         self.settings = settings
@@ -140,12 +152,10 @@ class Contact:
         self._cache_key = None
         self._cache = None
         self._friction = None
+        self._friction_potential = None
         if settings.friction > 0 or settings.pair_friction:
             eps = settings.friction_eps if settings.friction_eps is not None else 1e-2 * settings.dhat
             self._friction_potential = ipctk.FrictionPotential(eps)
-        self.ndof = self.X.size
-        self.always_project = False  # measured: projecting the barrier Hessian doubled Newton iterations and failed a Hertz test
-        self.fallback_projection = True  # ... but project it when the exact Hessian gives no descent (solver)
 
     # -- collision sets ------------------------------------------------------------------------
 
@@ -164,7 +174,7 @@ class Contact:
 
     def begin_step(self, x: np.ndarray) -> None:
         """Freeze normal forces and tangent bases for friction at the start of a load step."""
-        if not hasattr(self, "_friction_potential"):
+        if self._friction_potential is None:
             return
         V, col = self._collisions(x)
         tc = ipctk.TangentialCollisions()
@@ -199,7 +209,7 @@ class Contact:
 
     def hessian(self, x: np.ndarray, project: bool = False) -> sp.csr_matrix:
         V, col = self._collisions(x)
-        method = ipctk.PSDProjectionMethod.CLAMP if (project or self.always_project) else ipctk.PSDProjectionMethod.NONE
+        method = ipctk.PSDProjectionMethod.CLAMP if project else ipctk.PSDProjectionMethod.NONE
         H = self._barrier.hessian(col, self._cm, V, method)
         if self._friction is not None:
             V0, tc = self._friction

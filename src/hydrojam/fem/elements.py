@@ -12,7 +12,7 @@ Reference simplices: ``[0, 1]``, the triangle ``(0,0), (1,0), (0,1)`` and the te
 ``det J > 0`` (counterclockwise triangles, right-handed tets).
 
 Facets (``ReferenceElement.facets``): triangles ``(0,1), (1,2), (2,0)``; tets ``(0,2,1), (0,1,3),
-(0,3,2), (1,2,3)`` (the table of :mod:`hydrojam.fem.mesh`); local nodes are listed corners first, then
+(0,3,2), (1,2,3)`` (:mod:`hydrojam.fem.mesh` uses these tables); local nodes are listed corners first, then
 mid-edge nodes in the facet element's own order, oriented so the normal of :func:`facet_measure`
 points out of a positively oriented element. Line elements list their two end points as facets.
 
@@ -38,7 +38,6 @@ __all__ = [
     "quadrature",
 ]
 
-_REFERENCE_MEASURE = {"line": 1.0, "triangle": 0.5, "tetrahedron": 1.0 / 6.0}
 _SHAPE_OF_DIM = {1: "line", 2: "triangle", 3: "tetrahedron"}
 
 
@@ -188,11 +187,6 @@ class ReferenceElement:
         """Number of element nodes."""
         return self.nodes.shape[0]
 
-    @property
-    def nq(self) -> int:
-        """Number of quadrature points of the default rule."""
-        return self.quad_points.shape[0]
-
     def _xi(self, xi: np.ndarray) -> np.ndarray:
         return np.asarray(xi, dtype=float).reshape(-1, self.dim)
 
@@ -238,7 +232,7 @@ _EDGES = {
     2: [(0, 1), (1, 2), (2, 0)],
     3: [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)],
 }
-# Facet corners, ordered so the normal points outward (same table as hydrojam.fem.mesh).
+# Facet corners, ordered so the normal points outward (hydrojam.fem.mesh uses this table).
 _FACET_CORNERS = {
     1: [(0,), (1,)],
     2: [(0, 1), (1, 2), (2, 0)],

@@ -11,12 +11,14 @@ run) a 4k-DOF solve took 0.46 s instead of 0.02 s.
 from __future__ import annotations
 
 import ctypes
-import os
 import time
+import warnings
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+from hydrojam.fem._env import flag, positive_int
 
 
 class LinearSolveError(RuntimeError):
@@ -26,16 +28,52 @@ class LinearSolveError(RuntimeError):
 def _pardiso_available() -> bool:
     try:
         import pypardiso  # noqa: F401
-    except Exception:  # pragma: no cover - missing MKL on exotic platforms
+    except ImportError:  # pragma: no cover - missing MKL on exotic platforms
         return False
     return True
+
+
+class _Pardiso:
+    """MKL PARDISO through pypardiso (pinned 0.4.7): every call to pypardiso's private functions
+    and attributes (``_check_A``, ``_check_b``, ``_call_pardiso``, ``libmkl``) lives in this class,
+    so an upgrade is reviewed here. Real symmetric indefinite (mtype -2) on the upper triangle."""
+
+    def __init__(self, threads: int):
+        import pypardiso
+        from pypardiso.pardiso_wrapper import PyPardisoError
+
+        self.error = PyPardisoError
+        self._ps = pypardiso.PyPardisoSolver(mtype=-2)
+        self._ps.set_statistical_info_off()
+        setter = getattr(self._ps.libmkl, "MKL_Set_Num_Threads", None)
+        if setter is not None:
+            setter(ctypes.c_int(threads))
+
+    def solve(self, upper: sp.csr_matrix, b: np.ndarray, reuse_analysis: bool) -> np.ndarray:
+        """Solution for the upper triangle ``upper`` (sorted CSR): phase 23 (numerical
+        factorisation + solve) reusing the last analysis, or 13 (analysis too)."""
+        ps = self._ps
+        ps._check_A(upper)
+        b = ps._check_b(upper, b)
+        ps.set_phase(23 if reuse_analysis else 13)
+        return ps._call_pardiso(upper, b)
+
+    def release(self) -> None:
+        """Free all of MKL's memory for this handle (before analysing a new pattern)."""
+        self._ps.free_memory(everything=True)
+
+    def negative_eigenvalues(self) -> int:
+        """Inertia of the last factorised matrix: its number of negative eigenvalues."""
+        return int(self._ps.get_iparm(23))
 
 
 class LinearSolver:
     """Solve K u = b for symmetric sparse K.
 
     ``method``: "pardiso", "scipy" or "auto" (PARDISO where it loads, else SciPy's SuperLU).
-    ``seconds`` accumulates the wall time spent in solves [s] (for benchmarks).
+    ``seconds`` accumulates the wall time spent in solves [s] (for benchmarks). Reads
+    ``HYDROJAM_SOLVER_THREADS`` (MKL threads, a positive integer; default 1) and
+    ``HYDROJAM_REUSE_ANALYSIS`` (0 or 1; default 1) when constructed: ValueError otherwise.
     """
 
     def __init__(self, method: str = "auto"):
@@ -46,42 +84,46 @@ class LinearSolver:
         self.method = method
         self.seconds = 0.0
         self.calls = 0
-        self._pardiso = None
+        self._pardiso: _Pardiso | None = None
         self._analysed = None
         self._union = None
         self.negative_eigenvalues: int | None = None
         """Negative eigenvalues of the last matrix solved (PARDISO's inertia; a diagnostic for
         stability studies); None where the backend does not report it."""
-        self.reuse_analysis = os.environ.get("HYDROJAM_REUSE_ANALYSIS", "1") == "1"
+        self.threads = positive_int("HYDROJAM_SOLVER_THREADS", 1)
+        self.reuse_analysis = flag("HYDROJAM_REUSE_ANALYSIS", True)
 
     def _solve_pardiso(self, K: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
-        import pypardiso
-
-        ps = self._pardiso
-        if ps is None:
-            ps = self._pardiso = pypardiso.PyPardisoSolver(mtype=-2)
-            ps.set_statistical_info_off()
-            threads = int(os.environ.get("HYDROJAM_SOLVER_THREADS", "1"))
-            setter = getattr(ps.libmkl, "MKL_Set_Num_Threads", None)
-            if setter is not None:
-                setter(ctypes.c_int(max(threads, 1)))
+        if self._pardiso is None:
+            self._pardiso = _Pardiso(self.threads)
         upper = sp.triu(K, format="csr")
         upper.sort_indices()
         upper = self._on_union_pattern(upper)
-        ps._check_A(upper)
-        b = ps._check_b(upper, b)
+        if not np.diff(upper.indptr).all():  # PARDISO would crash on it (pypardiso refuses it too)
+            raise LinearSolveError("pardiso: matrix is singular (an empty row)")
         # The symbolic analysis (ordering) depends only on the sparsity pattern: reuse it while the
         # pattern stays (phase 23 = numerical factorisation + solve), redo it when contact changes
         # it (phase 13). Measured: the analysis is ~55% of a 2D solve.
         key = (upper.shape[0], hash(upper.indptr.tobytes()), hash(upper.indices.tobytes()))
         if self._analysed is not None and key != self._analysed:
             # MKL wrote out of bounds when one handle was re-analysed for a new pattern: start clean
-            ps.free_memory(everything=True)
-        ps.set_phase(23 if (key == self._analysed and self.reuse_analysis) else 13)
-        x = ps._call_pardiso(upper, b)
+            self._pardiso.release()
+        try:
+            x = self._pardiso.solve(upper, b, key == self._analysed and self.reuse_analysis)
+        except self._pardiso.error as exc:  # a failed factorisation (zero pivot, ...)
+            raise LinearSolveError(f"pardiso: {exc}") from exc
         self._analysed = key
-        self.negative_eigenvalues = int(ps.get_iparm(23))  # inertia of the factorised matrix
+        self.negative_eigenvalues = self._pardiso.negative_eigenvalues()
         return x
+
+    def _solve_scipy(self, K: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
+        self.negative_eigenvalues = None
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", spla.MatrixRankWarning)
+            try:
+                return spla.spsolve(K.tocsc(), b)
+            except (spla.MatrixRankWarning, RuntimeError) as exc:  # SuperLU: singular factor
+                raise LinearSolveError(f"scipy: {exc}") from exc
 
     def _on_union_pattern(self, upper: sp.csr_matrix) -> sp.csr_matrix:
         """``upper`` stored on the union of the sparsity patterns seen lately (explicit zeros
@@ -112,18 +154,13 @@ class LinearSolver:
         return sp.csr_matrix((data, self._union[3], indptr), shape=upper.shape)
 
     def solve(self, K: sp.spmatrix, b: np.ndarray) -> np.ndarray:
-        """Solution u of K u = b; raises LinearSolveError if it is not finite."""
+        """Solution u of K u = b; raises LinearSolveError if K is singular (the factorisation
+        fails) or u is not finite. Anything else (a wrong shape, a bug) propagates as it is."""
         t0 = time.perf_counter()
         K = sp.csr_matrix(K, dtype=np.float64)
         b = np.asarray(b, dtype=np.float64)
         try:
-            if self.method == "pardiso":
-                x = self._solve_pardiso(K, b)
-            else:
-                self.negative_eigenvalues = None
-                x = spla.spsolve(K.tocsc(), b)
-        except Exception as exc:  # PARDISO / SuperLU report singularity as exceptions
-            raise LinearSolveError(f"{self.method}: {exc}") from exc
+            x = self._solve_pardiso(K, b) if self.method == "pardiso" else self._solve_scipy(K, b)
         finally:
             self.seconds += time.perf_counter() - t0
             self.calls += 1

@@ -17,29 +17,30 @@ from typing import Mapping
 import meshio
 import numpy as np
 
+from hydrojam.fem.elements import ELEMENTS, element_for_meshio_type
+
 # ----------------------------------------------------------------------------------------------
-# Reference tables (meshio / VTK node order)
+# Reference tables: the cells' and facets' own come from hydrojam.fem.elements (meshio order)
 # ----------------------------------------------------------------------------------------------
 
 CELL_TYPES = ("triangle", "triangle6", "tetra", "tetra10")
 
-_NODES = {"line": 2, "line3": 3, "triangle": 3, "triangle6": 6, "tetra": 4, "tetra10": 10}
-_CELL_DIM = {"triangle": 2, "triangle6": 2, "tetra": 3, "tetra10": 3}
-_ORDER = {"line": 1, "line3": 2, "triangle": 1, "triangle6": 2, "tetra": 1, "tetra10": 2}
-_FACET_TYPE = {"triangle": "line", "triangle6": "line3", "tetra": "triangle", "tetra10": "triangle6"}
 
-# Mid-edge nodes of quadratic cells: the corner pair each mid node sits between, in local order.
-MID_EDGES = {
-    "line3": ((0, 1),),
-    "triangle6": ((0, 1), (1, 2), (2, 0)),
-    "tetra10": ((0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)),
-}
+def _nodes(cell_type: str) -> int:
+    return element_for_meshio_type(cell_type).nen
 
-# Corner facets of a positively oriented cell, oriented outward.
-_CORNER_FACETS = {
-    2: ((0, 1), (1, 2), (2, 0)),  # counterclockwise: outward normal = (t_y, -t_x)
-    3: ((0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)),  # right-hand rule gives outward normal
-}
+
+def _cell_dim(cell_type: str) -> int:
+    return element_for_meshio_type(cell_type).dim
+
+
+def _facet_type(cell_type: str) -> str:
+    return ELEMENTS[element_for_meshio_type(cell_type).facet_name].meshio_type
+
+
+#: Mid-edge nodes of quadratic cells and facets: the corner pair each mid node sits between, in
+#: local order (the reference elements' ``edges``).
+MID_EDGES = {t: tuple(tuple(e) for e in element_for_meshio_type(t).edges.tolist()) for t in ("line3", "triangle6", "tetra10")}
 
 # Node permutation that flips a cell's orientation (swap corners 1 and 2, mid nodes follow).
 _FLIP = {
@@ -49,25 +50,8 @@ _FLIP = {
     "tetra10": (0, 2, 1, 3, 6, 5, 4, 7, 9, 8),
 }
 
-
-def _facet_table(cell_type: str) -> np.ndarray:
-    """Local node indices of each facet of ``cell_type``, outward, corners then mid nodes."""
-    corner_facets = _CORNER_FACETS[_CELL_DIM[cell_type]]
-    if _ORDER[cell_type] == 1:
-        return np.array(corner_facets, dtype=np.int64)
-    nc = _CELL_DIM[cell_type] + 1  # corner nodes; mid nodes follow
-    mid = {frozenset(e): nc + k for k, e in enumerate(MID_EDGES[cell_type])}
-    rows = []
-    for f in corner_facets:
-        if len(f) == 2:
-            rows.append((*f, mid[frozenset(f)]))
-        else:
-            a, b, c = f
-            rows.append((a, b, c, mid[frozenset((a, b))], mid[frozenset((b, c))], mid[frozenset((c, a))]))
-    return np.array(rows, dtype=np.int64)
-
-
-_FACETS = {t: _facet_table(t) for t in CELL_TYPES}
+# Local node indices of each facet, outward, corners then mid nodes (the reference elements' facets).
+_FACETS = {t: np.asarray(element_for_meshio_type(t).facets, dtype=np.int64) for t in CELL_TYPES}
 
 
 def _group_rows(keys: np.ndarray):
@@ -95,41 +79,10 @@ def signed_measures(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), p3 - p0) / 6.0
 
 
-def _simplex_rule(dim: int, n: int = 4):
-    """Collapsed (Duffy) Gauss rule with n points per direction on the unit simplex:
-    (points (q, dim), weights (q,)), exact for polynomials of degree <= 2n - dim (n = 4 covers
-    the cubic Jacobian determinant of a quadratic tetrahedron)."""
-    x, w = np.polynomial.legendre.leggauss(n)
-    x, w = 0.5 * (x + 1.0), 0.5 * w
-    if dim == 2:
-        a, b = np.meshgrid(x, x, indexing="ij")
-        wa, wb = np.meshgrid(w, w, indexing="ij")
-        pts = np.column_stack([a.ravel(), (b * (1 - a)).ravel()])
-        return pts, (wa * wb * (1 - a)).ravel()
-    a, b, c = np.meshgrid(x, x, x, indexing="ij")
-    wa, wb, wc = np.meshgrid(w, w, w, indexing="ij")
-    pts = np.column_stack([a.ravel(), (b * (1 - a)).ravel(), (c * (1 - a) * (1 - b)).ravel()])
-    return pts, (wa * wb * wc * (1 - a) ** 2 * (1 - b)).ravel()
-
-
-def _shape_gradients(cell_type: str, xi: np.ndarray) -> np.ndarray:
-    """Reference gradients dN_a/dxi_j of the Lagrange shape functions at points ``xi`` (q, dim):
-    shape (q, nen, dim), meshio node order."""
-    dim = _CELL_DIM[cell_type]
-    q = len(xi)
-    L = np.column_stack([1.0 - xi.sum(axis=1), xi])  # barycentric coordinates (q, dim+1)
-    dL = np.vstack([-np.ones(dim), np.eye(dim)])  # (dim+1, dim)
-    if _ORDER[cell_type] == 1:
-        return np.broadcast_to(dL, (q, dim + 1, dim)).copy()
-    g = [(4.0 * L[:, i, None] - 1.0) * dL[i] for i in range(dim + 1)]
-    g += [4.0 * (L[:, a, None] * dL[b] + L[:, b, None] * dL[a]) for a, b in MID_EDGES[cell_type]]
-    return np.stack(g, axis=1)
-
-
 def jacobian_determinants(points: np.ndarray, cells: np.ndarray, cell_type: str, xi: np.ndarray):
     """det(dx/dxi) of the isoparametric map of each cell at reference points ``xi`` (q, dim):
     shape (n_cells, q). Positive everywhere for a valid, positively oriented cell."""
-    dN = _shape_gradients(cell_type, np.atleast_2d(np.asarray(xi, dtype=float)))
+    dN = element_for_meshio_type(cell_type).grad(np.atleast_2d(np.asarray(xi, dtype=float)))
     J = np.einsum("cai,qaj->cqij", points[cells], dN)
     return np.linalg.det(J)
 
@@ -170,10 +123,10 @@ class Mesh:
             raise ValueError(f"unsupported cell type {self.cell_type!r}; expected one of {CELL_TYPES}")
         pts = np.asarray(self.points, dtype=np.float64)
         cells = np.asarray(self.cells, dtype=np.int64)
-        dim = _CELL_DIM[self.cell_type]
+        dim = _cell_dim(self.cell_type)
         if pts.ndim != 2 or pts.shape[1] != dim:
             raise ValueError(f"{self.cell_type} mesh needs points of shape (n, {dim}), got {pts.shape}")
-        nen = _NODES[self.cell_type]
+        nen = _nodes(self.cell_type)
         if cells.ndim != 2 or cells.shape[1] != nen:
             raise ValueError(f"{self.cell_type} cells need shape (n, {nen}), got {cells.shape}")
         if cells.size and (cells.min() < 0 or cells.max() >= len(pts)):
@@ -184,7 +137,7 @@ class Mesh:
             if idx.size and (idx[0] < 0 or idx[-1] >= len(cells)):
                 raise ValueError(f"cell group {name!r}: index out of range")
             cg[str(name)] = _readonly(idx)
-        nfn = _NODES[_FACET_TYPE[self.cell_type]]
+        nfn = _nodes(_facet_type(self.cell_type))
         fg = {}
         for name, fac in self.facet_groups.items():
             fac = np.asarray(fac, dtype=np.int64).reshape(-1, nfn)
@@ -220,7 +173,7 @@ class Mesh:
             neg = signed_measures(points, cells) < 0
             if np.any(neg):
                 cells[neg] = cells[neg][:, list(_FLIP[cell_type])]
-        nfn = _NODES[_FACET_TYPE[cell_type]]
+        nfn = _nodes(_facet_type(cell_type))
         if prune:
             used = [cells.ravel()] + [f.ravel() for f in facet_groups.values()]
             used = np.unique(np.concatenate(used))
@@ -271,12 +224,12 @@ class Mesh:
     @property
     def facet_type(self) -> str:
         """meshio type of the facets: "line", "line3", "triangle" or "triangle6"."""
-        return _FACET_TYPE[self.cell_type]
+        return _facet_type(self.cell_type)
 
     @property
     def order(self) -> int:
         """Polynomial order of the cells (1 or 2)."""
-        return _ORDER[self.cell_type]
+        return element_for_meshio_type(self.cell_type).order
 
     @property
     def n_corners(self) -> int:
@@ -321,8 +274,9 @@ class Mesh:
         (possibly curved) quadratic cell is integrated exactly."""
         if not curved or self.order == 1:
             return signed_measures(self.points, self.cells[:, : self.n_corners])
-        xi, w = _simplex_rule(self.dim)
-        return jacobian_determinants(self.points, self.cells, self.cell_type, xi) @ w
+        # det J of a quadratic cell is a polynomial of degree dim: a rule of that degree is exact
+        rule = element_for_meshio_type(self.cell_type).with_quadrature(self.dim)
+        return jacobian_determinants(self.points, self.cells, self.cell_type, rule.quad_points) @ rule.quad_weights
 
     def facet_measures(self, facets: np.ndarray) -> np.ndarray:
         """Length (2D) [mm] or area (3D) [mm^2] of facets from their corner nodes."""
@@ -387,11 +341,11 @@ class Mesh:
         types = {b.type for b in m.cells}
         if dim is None:
             dim = 3 if types & {"tetra", "tetra10"} else 2
-        cand = [t for t in types if t in CELL_TYPES and _CELL_DIM[t] == dim]
+        cand = [t for t in types if t in CELL_TYPES and _cell_dim(t) == dim]
         if len(cand) != 1:
             raise ValueError(f"need exactly one {dim}D cell type in the meshio mesh, found {sorted(types)}")
         cell_type = cand[0]
-        facet_type = _FACET_TYPE[cell_type]
+        facet_type = _facet_type(cell_type)
         cell_blocks = [i for i, b in enumerate(m.cells) if b.type == cell_type]
         facet_blocks = [i for i, b in enumerate(m.cells) if b.type == facet_type]
         offsets = {}

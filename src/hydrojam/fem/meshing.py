@@ -1,7 +1,7 @@
 """Every call to gmsh lives here (project rule: a gmsh upgrade touches one file).
 
 :func:`gmsh_session` opens a deterministic, quiet gmsh session holding a fresh model;
-:func:`extract_mesh` turns the current meshed model into a :class:`~hydrojam.mesh.Mesh`; the
+:func:`extract_mesh` turns the current meshed model into a :class:`~hydrojam.fem.mesh.Mesh`; the
 shape builders (:func:`rectangle`, :func:`disk`, :func:`box`, :func:`ball`,
 :func:`bonded_rectangles`, :func:`disks`) make small meshes for tests and verification.
 Lengths in mm. 2D shapes are drawn in gmsh's x-y plane and returned with two point columns,

@@ -1,0 +1,171 @@
+"""The adaptive load path (DESIGN.md section 8): s from 0 to 1 in increments, each a Newton
+minimisation (:mod:`hydrojam.fem.newton`) of a :class:`~hydrojam.fem.problem.Problem`'s terms."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
+from hydrojam.fem.newton import NewtonOptions, NewtonResult, NewtonStatus, Timings, minimize, sum_energy
+from hydrojam.fem.problem import Problem
+
+
+@dataclass(frozen=True)
+class PathOptions:
+    """Adaptive load stepping in s: grow ``grow``x after easy steps (<= ``easy_iterations``),
+    halve on failure; below ``ds_min`` one last attempt with ``last_resort_factor`` x the Newton
+    iteration budget, then give up."""
+
+    ds0: float = 0.25
+    ds_min: float = 1e-4
+    ds_max: float = 1.0
+    grow: float = 1.5
+    easy_iterations: int = 6
+    newton: NewtonOptions = NewtonOptions()
+    last_resort_factor: int = 10
+    """The last attempt's Newton budget, in units of ``newton.max_iter``."""
+    end_tolerance: float = 1e-12
+    """s within this of 1 counts as the end of the path."""
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """One accepted load step: s reached, increment ds, Newton iterations, residual [N], energy
+    [mJ] and wall time [s]."""
+
+    s: float
+    ds: float
+    iterations: int
+    residual: float
+    energy: float
+    seconds: float
+
+
+@dataclass(frozen=True)
+class PathResult:
+    """Outcome of a load path: the last converged state and the step history."""
+
+    x: np.ndarray  # last converged positions (n, d) [mm]
+    s: float  # load parameter reached
+    converged: bool  # reached s = 1
+    message: str
+    history: list[StepRecord]
+    timings: Timings
+    rejected_steps: int
+
+    @property
+    def newton_iterations(self) -> int:
+        """Newton iterations of all accepted steps."""
+        return sum(h.iterations for h in self.history)
+
+
+def _predictor(problem, terms, x, x_bc, free, solver):
+    """Start of a load step whose prescribed DOFs move (x -> x_bc on them): the linearised response
+    of the free DOFs, shortened until the move from x is admissible and collision-free (every
+    term's step cap, so contact CCD sees the predictor like any Newton step). None if even moving
+    the prescribed DOFs alone is not."""
+    shape = problem.X.shape
+    delta = x_bc - x
+    if not np.any(delta):
+        return x_bc
+    fidx = np.flatnonzero(free)
+    xs = x.reshape(shape)
+    du = None
+    H = sp.csr_matrix(sum(t.hessian(xs, True) for t in terms))
+    try:
+        du = solver.solve(H[fidx][:, fidx], -(H[fidx] @ delta))
+    except LinearSolveError:
+        pass
+    for scale in (1.0, 0.5, 0.25, 0.0) if du is not None else (0.0,):
+        trial = x_bc.copy()
+        if scale:
+            trial[fidx] += scale * du
+        step = (trial - x).reshape(shape)
+        if min([1.0] + [t.max_step(xs, step) for t in terms]) < 1.0:
+            continue
+        if np.isfinite(sum_energy(terms, trial.reshape(shape))):
+            return trial
+    return None
+
+
+def solve_path(
+    problem: Problem,
+    options: PathOptions = PathOptions(),
+    callback: Callable[[float, np.ndarray, StepRecord], None] | None = None,
+    on_attempt: Callable[[float, float, NewtonResult], None] | None = None,
+) -> PathResult:
+    """Follow s from 0 to 1 in adaptive increments, each an energy minimisation, from the
+    reference positions.
+
+    On failure below the minimum increment, returns with the last converged state and a message
+    saying where and why. ``callback(s, x, record)`` runs after
+    every accepted step, ``on_attempt(s_try, ds, newton_result)`` after every attempt (progress).
+    Every term's ``begin_step`` runs at the start of every step.
+    """
+    solver = LinearSolver(options.newton.linear_solver)
+    free = problem.free_mask()
+    shape = problem.X.shape
+    x = problem.X.ravel().copy()
+    problem.apply_dirichlet(x, 0.0)
+    tm = Timings()
+    history: list[StepRecord] = []
+    # equilibrate at s = 0 first (a no-op for a stress-free reference)
+    s, ds, rejected = 0.0, options.ds0, 0
+    res0 = minimize(problem.terms(0.0), x.reshape(shape), free, problem.force_scale, options.newton, solver)
+    tm.add(res0.timings)
+    if not res0.converged:
+        msg = f"could not equilibrate the initial state (s = 0): {res0.message}"
+        return PathResult(x.reshape(shape), 0.0, False, msg, history, tm, 0)
+    x = res0.x.ravel().copy()
+    message = "converged"
+    newton, last_resort = options.newton, False
+    while s < 1.0 - options.end_tolerance:
+        ds = min(ds, 1.0 - s)
+        s_try = s + ds
+        t0 = time.perf_counter()
+        terms = problem.terms(s_try)
+        x_bc = x.copy()
+        problem.apply_dirichlet(x_bc, s_try)
+        for t in terms:  # lagged quantities (friction, stabilisation) freeze at the start of the step
+            t.begin_step(x.reshape(shape))
+        x_start = _predictor(problem, terms, x, x_bc, free, solver)
+        if x_start is None:
+            res = NewtonResult(x.reshape(shape), NewtonStatus.INADMISSIBLE_START, 0, np.inf, np.inf,
+                               "the prescribed displacement increment is not admissible", [], Timings())
+        else:
+            res = minimize(terms, x_start.reshape(shape), free, problem.force_scale, newton, solver)
+        tm.add(res.timings)
+        if on_attempt is not None:
+            on_attempt(s_try, ds, res)
+        if res.converged:
+            newton, last_resort = options.newton, False
+            s = s_try
+            x = res.x.ravel().copy()
+            rec = StepRecord(s, ds, res.iterations, res.residual, res.energy, time.perf_counter() - t0)
+            history.append(rec)
+            if callback is not None:
+                callback(s, res.x, rec)
+            if res.iterations <= options.easy_iterations:
+                ds = min(ds * options.grow, options.ds_max)
+        else:
+            rejected += 1
+            ds *= 0.5
+            if ds < options.ds_min and not last_resort and res.status is NewtonStatus.MAX_ITERATIONS:
+                # A snap (jammed particles rearranging) has no nearby equilibrium: the state must
+                # travel, which takes many iterations, not a smaller increment. One long attempt.
+                last_resort, ds = True, 2.0 * ds
+                newton = dataclasses.replace(options.newton, max_iter=options.last_resort_factor * options.newton.max_iter)
+                continue
+            if ds < options.ds_min:
+                message = (
+                    f"load step failed at s = {s_try:.6g} (increment {2 * ds:.3g} < minimum {options.ds_min:g}): "
+                    f"{res.message}; last converged state kept at s = {s:.6g}"
+                )
+                return PathResult(x.reshape(shape), s, False, message, history, tm, rejected)
+    return PathResult(x.reshape(shape), s, True, message, history, tm, rejected)
