@@ -29,10 +29,10 @@ def main(out: Path) -> int:
     p = HydrogelParams()
     gel = Hydrogel(p)  # at the as-prepared stimulus (mu0, T0)
     mesh = rectangle(WIDTH, THICKNESS, MESH_SIZE, order=2)  # quadratic triangles
-    solid = Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), gel)])
+    solid = Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), gel, "gel")])
 
     def terms(s):  # the stimulus moves linearly from (mu0, T0) at s = 0 to (0, 275 K) at s = 1
-        return [solid.with_materials([gel.at(p.mu0 * (1 - s), p.T0 + s * (T_WATER - p.T0))])]
+        return [solid.with_materials({"gel": gel.at(p.mu0 * (1 - s), p.T0 + s * (T_WATER - p.T0))})]
 
     g = mesh.group_nodes
     bcs = [fixed(g("bottom"), 2), fixed(g("left"), 2, [0]), fixed(g("right"), 2, [0])]
