@@ -77,7 +77,7 @@ def main(argv=None) -> int:
     print(f"bending angle {m['bending_angle_deg']:.2f} deg, tip dx {m['tip_dx_mm']:.2f} mm, dz {m['tip_dz_mm']:.2f} mm, "
           f"curling index {m['curling_index']}, packing fraction {m['packing_fraction']:.3f}, "
           f"contacts per particle {m['contacts_per_particle']:.2f}, "
-          f"stabilisation energy / elastomer energy (max over steps) {m['stabilization_energy_ratio']:.3g}")
+          f"stabilisation energy / elastomer energy (max over steps) {m['stabilisation_energy_ratio']:.3g}")
     return 0 if res.converged else 1
 
 

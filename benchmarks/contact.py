@@ -183,11 +183,11 @@ def build_case(n_side: int) -> Case:
     R, c, t = RADIUS, clearance(n_side), WALL_THICKNESS
     rng = np.random.default_rng(SEED)
     L = n_side * (2 * R + c) + c
-    centers = [(c + R + i * (2 * R + c) + JITTER * c * rng.uniform(-1, 1),
+    centres = [(c + R + i * (2 * R + c) + JITTER * c * rng.uniform(-1, 1),
                 c + R + j * (2 * R + c) + JITTER * c * rng.uniform(-1, 1))
                for j in range(n_side) for i in range(n_side)]
     m = merge({
-        "disks": _gmsh.disks(centers, R, MESH_SIZE),
+        "disks": _gmsh.disks(centres, R, MESH_SIZE),
         "bottom": _gmsh.rectangle(L + 2 * t, t, MESH_SIZE, origin=(-t, -t)),
         "top": _gmsh.rectangle(L + 2 * t, t, MESH_SIZE, origin=(-t, L)),
         "left": _gmsh.rectangle(t, L, MESH_SIZE, origin=(-t, 0.0)),

@@ -28,7 +28,7 @@ def main(out: Path) -> int:
     print(f"bending angle:    {m['bending_angle_deg']:.2f} deg (positive: toward the strain-limit layer)")
     print(f"tip displacement: dx = {m['tip_dx_mm']:.2f} mm, dz = {m['tip_dz_mm']:.2f} mm")
     print(f"converged: {m['converged']} ({m['load_steps']} load steps, {m['newton_iterations']} Newton "
-          f"iterations, stabilisation released: {m['stabilization_released']})")
+          f"iterations, stabilisation released: {m['stabilisation_released']})")
     print(f"results: {out}/")
     return 0 if result.converged else 1
 

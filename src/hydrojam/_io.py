@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import math
 import errno
 import os
 import tempfile
@@ -94,3 +95,20 @@ def read_toml(path: str | os.PathLike, kind: str, error: type[Exception]) -> dic
         raise error(f"{path}: not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as err:
         raise error(f"{path}: invalid TOML: {err}") from None
+
+
+def finite_or_none(value):
+    """The one rule for non-finite values in outputs: NaN and +-inf become None (JSON ``null``, an
+    empty CSV cell), recursively through dicts, lists and tuples; numpy scalars become Python
+    numbers. Every writer of results passes its values through this."""
+    if isinstance(value, dict):
+        return {k: finite_or_none(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite_or_none(v) for v in value]
+    if isinstance(value, bool):
+        return value
+    if hasattr(value, "item") and callable(value.item) and getattr(value, "ndim", None) == 0:
+        value = value.item()  # numpy scalar
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    return value

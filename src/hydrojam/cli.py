@@ -264,13 +264,13 @@ def run_design(
     if not result.converged:
         console.print(f"[red]hydrojam: the solver stopped early: {result.message}[/red]")
         raise typer.Exit(code=1)
-    if not metrics.get("stabilization_released", True):
+    if not metrics.get("stabilisation_released", True):
         console.print(f"[yellow]hydrojam: warning: {result.message}[/yellow]")
 
 
 #: the metrics of `hydrojam run`'s summary table, in its order (units and meanings from the registry)
 RUN_SUMMARY = ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index", "packing_fraction",
-               "contacts_per_particle", "converged", "stabilization_released", "newton_iterations", "wall_time_s")
+               "contacts_per_particle", "converged", "stabilisation_released", "newton_iterations", "wall_time_s")
 
 
 def _run_summary(title: str, metrics: dict) -> Table:

@@ -37,11 +37,11 @@ def test_defaults_match_design_md():
     assert (d.dimension, d.particle_diameter, d.particle_layers, d.particles_per_layer) == (2, 16.0, 5, 1)
     assert (d.clearance, d.side_wall_thickness, d.end_wall_thickness, d.strain_limit_thickness) == (0.1, 2.0, 4.0, 8.0)
     assert d.cavity_width is None and d.cavity_length is None
-    assert d.cavity_width_mm == pytest.approx(16.2)
-    assert d.cavity_length_mm == pytest.approx(80.6)
-    assert d.cavity_depth_mm == pytest.approx(16.2)
-    assert d.length_mm == pytest.approx(88.6)
-    assert d.width_mm == pytest.approx(8 + 4 + 16.2)
+    assert d.resolved_cavity_width == pytest.approx(16.2)
+    assert d.resolved_cavity_length == pytest.approx(80.6)
+    assert d.resolved_cavity_depth == pytest.approx(16.2)
+    assert d.length == pytest.approx(88.6)
+    assert d.width == pytest.approx(8 + 4 + 16.2)
     assert (d.stimulus.temperature, d.stimulus.mu, d.stimulus.path) == (275.0, 0.0, "swelling")
     assert d.hydrogel == HydrogelParams()
     mat = d.membrane.material()
@@ -158,11 +158,11 @@ def test_a_derived_cavity_fits_exactly():
 def test_overrides():
     d = apply_overrides(default_design(), ["particle_layers=7", "stimulus.path=linear", "stimulus.temperature=295"])
     assert d.particle_layers == 7 and d.cavity_length is None
-    assert d.cavity_length_mm == pytest.approx(7 * 16 + 8 * 0.1)
+    assert d.resolved_cavity_length == pytest.approx(7 * 16 + 8 * 0.1)
     assert d.stimulus.path == "linear" and d.stimulus.temperature == 295.0
     # a derived cavity follows a new diameter
     d = apply_overrides(default_design(), ["particle_diameter=12", "mesh.size=1"])
-    assert d.cavity_width_mm == pytest.approx(12.2) and d.length_mm == pytest.approx(5 * 12 + 0.6 + 8)
+    assert d.resolved_cavity_width == pytest.approx(12.2) and d.length == pytest.approx(5 * 12 + 0.6 + 8)
     # a table override merges into the table
     d = apply_overrides(default_design(), ['membrane={model="yeoh", c20=1e-4}'])
     assert d.membrane == ElastomerSpec(model="yeoh", c20=1e-4)

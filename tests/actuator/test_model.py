@@ -70,7 +70,7 @@ def test_design_is_resolved_to_the_hand_computed_sizes(model):
     d = model.design
     assert d.cavity_width == pytest.approx(W_CAV, rel=1e-12)
     assert d.cavity_length == pytest.approx(L_CAV, rel=1e-12)
-    assert d.length_mm == pytest.approx(LENGTH, rel=1e-12)
+    assert d.length == pytest.approx(LENGTH, rel=1e-12)
 
 
 def test_particle_count_is_layers_times_particles_per_layer(model):

@@ -260,8 +260,8 @@ def test_result_writer_end_to_end(model, X, tmp_path):
     # a rigid rotation by 25 deg: every tangent turned by 25 deg, no curvature, lengths kept
     assert np.allclose([float(r["rotation_deg"]) for r in cl], 25.0, atol=1e-9)
     assert np.allclose([float(r["curvature_per_mm"]) for r in cl], 0.0, atol=1e-9)
-    assert float(cl[-1]["reference_arc_length_mm"]) == pytest.approx(model.design.length_mm, rel=1e-9)
-    assert float(cl[-1]["arc_length_mm"]) == pytest.approx(model.design.length_mm, rel=1e-9)
+    assert float(cl[-1]["reference_arc_length_mm"]) == pytest.approx(model.design.length, rel=1e-9)
+    assert float(cl[-1]["arc_length_mm"]) == pytest.approx(model.design.length, rel=1e-9)
 
     png = (out / "final.png").read_bytes()
     assert len(png) > 1000 and png.startswith(PNG_MAGIC)

@@ -136,11 +136,11 @@ def _gel_in_box_2d(nx, ny, clearance, size=0.4, seed=7):
     R = 1.0
     rng = np.random.default_rng(seed)
     W, H = nx * (2 * R + clearance) + clearance, ny * (2 * R + clearance) + clearance
-    centers = [(clearance + R + i * (2 * R + clearance) + 0.3 * clearance * rng.uniform(-1, 1),
+    centres = [(clearance + R + i * (2 * R + clearance) + 0.3 * clearance * rng.uniform(-1, 1),
                 clearance + R + j * (2 * R + clearance) + 0.3 * clearance * rng.uniform(-1, 1))
                for j in range(ny) for i in range(nx)]
     t = 0.5
-    parts = {"disks": disks(centers, R, size),
+    parts = {"disks": disks(centres, R, size),
              "bottom": rectangle(W + 2 * t, t, size, origin=(-t, -t)), "top": rectangle(W + 2 * t, t, size, origin=(-t, H)),
              "left": rectangle(t, H, size, origin=(-t, 0.0)), "right": rectangle(t, H, size, origin=(W, 0.0))}
     m = merge(parts)
@@ -241,7 +241,7 @@ def test_gel_spheres_jam_in_a_rigid_box_3d():
         for j in range(2):
             ctr = (c + R + i * (2 * R + c) + 0.2 * c * rng.uniform(-1, 1), c + R + j * (2 * R + c) + 0.2 * c * rng.uniform(-1, 1),
                    c + R + 0.1 * rng.uniform(-1, 1))
-            parts[f"p{k}"] = ball(R, 0.9, center=ctr)
+            parts[f"p{k}"] = ball(R, 0.9, centre=ctr)
             k += 1
     Hz = 2 * R + 2 * c
     t = 0.5

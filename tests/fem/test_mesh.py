@@ -13,13 +13,13 @@ from hydrojam.fem.mesh import MID_EDGES, Mesh, jacobian_determinants
 SHAPES_2D = {
     "rectangle": lambda o: _gmsh.rectangle(2.0, 1.0, 0.25, order=o, origin=(0.5, -1.0)),
     "rectangle_structured": lambda o: _gmsh.rectangle(2.0, 1.0, 0.25, order=o, structured=True),
-    "disk": lambda o: _gmsh.disk(1.0, 0.15, order=o, center=(0.3, 0.2)),
+    "disk": lambda o: _gmsh.disk(1.0, 0.15, order=o, centre=(0.3, 0.2)),
     "bonded_rectangles": lambda o: _gmsh.bonded_rectangles(1.0, 2.0, 1.0, 0.25, order=o),
     "disks": lambda o: _gmsh.disks([(0.0, 0.0), (2.5, 0.0)], [1.0, 0.5], 0.2, order=o),
 }
 SHAPES_3D = {
     "box": lambda o: _gmsh.box(1.0, 0.5, 2.0, 0.3, order=o, origin=(0.0, 1.0, 0.0)),
-    "ball": lambda o: _gmsh.ball(1.0, 0.3, order=o, center=(0.1, 0.0, -0.2)),
+    "ball": lambda o: _gmsh.ball(1.0, 0.3, order=o, centre=(0.1, 0.0, -0.2)),
 }
 SHAPES = {**SHAPES_2D, **SHAPES_3D}
 

@@ -25,7 +25,7 @@ def row(sweep: str, field: str, value, theta, dx, dz, ci=0.5, status="ok", **ext
     r = {"sweep": sweep, "point": f"{field}={value}", "key": f"{field}={value}", **point,
          "bending_angle_deg": None if failed else theta, "tip_dx_mm": None if failed else dx,
          "tip_dz_mm": None if failed else dz, "curling_index": None if failed else ci,
-         "converged": None if failed else status == "ok", "stabilization_released": status == "ok",
+         "converged": None if failed else status == "ok", "stabilisation_released": status == "ok",
          "newton_iterations": None if failed else 900, "wall_time_s": None if failed else 120.0,
          "status": status, "error": "solver stopped: minimum increment" if failed else None,
          "point_dir": f"points/{sweep}-{value}"}
@@ -111,7 +111,7 @@ def write_point(out: Path, r: dict, bend: float, design=None) -> None:
     if design is None:
         design = apply_overrides(default_design(), [f"{f}={r[f]!r}" for f in FIELDS])
     write_design(pdir / "design.toml", design)
-    L, w, h = design.length_mm, design.cavity_width_mm / 2 + 2.0, design.strain_limit_thickness
+    L, w, h = design.length, design.resolved_cavity_width / 2 + 2.0, design.strain_limit_thickness
     quads = [np.array([[-w, -L], [w, -L], [w, 0], [-w, 0]]),  # membrane
              np.array([[-w - h, -L], [-w, -L], [-w, 0], [-w - h, 0]]),  # strain-limit layer
              np.array([[-6, -20], [6, -20], [6, -8], [-6, -8]])]  # a particle

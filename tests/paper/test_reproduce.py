@@ -26,7 +26,7 @@ def test_reproduce_end_to_end_from_cached_points(tmp_path):
             continue
         done.add(p.key)
         metrics = paper_like(p.design)
-        metrics.update(converged=True, stabilization_released=True, newton_iterations=900)
+        metrics.update(converged=True, stabilisation_released=True, newton_iterations=900)
         write_point(tmp_path, {"point_dir": f"points/{p.key}"}, bend=-0.5, design=p.design)
         record = {"key": p.key, "status": "ok", "error": None, "metrics": metrics, "wall_time_s": 60.0}
         (tmp_path / "points" / p.key / "point.json").write_text(json.dumps(record))

@@ -69,7 +69,7 @@ def test_grid_is_the_product_in_key_then_value_order(study_file):
         assert p.design.stimulus.temperature == 275.0 and p.design.clearance == 0.2
         # derived cavity follows the varied particle count
         pl = p.design.particle_layers
-        assert p.design.cavity_length_mm == pytest.approx(pl * 16.0 + (pl + 1) * 0.2)
+        assert p.design.resolved_cavity_length == pytest.approx(pl * 16.0 + (pl + 1) * 0.2)
     assert [p.design.stimulus.temperature for p in points[:3]] == [275.0, 285.0, 295.0]
     assert all(p.design.particle_layers == 3 for p in points[:3])
 

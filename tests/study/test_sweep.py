@@ -52,7 +52,7 @@ def cheap(design, point_dir):
     return {"bending_angle_deg": 300.0 - T, "tip_dx_mm": -(300.0 - T) / 10, "tip_dz_mm": -1.0,
             "curling_index": None, "max_curvature_per_mm": math.nan, "packing_fraction": 0.9,
             "contacts_per_particle": 2, "mean_swelling_ratio": 1.5, "converged": True,
-            "stabilization_released": True, "s_reached": 1.0, "load_steps": design.particle_layers,
+            "stabilisation_released": True, "s_reached": 1.0, "load_steps": design.particle_layers,
             "newton_iterations": 10 * design.particle_layers, "wall_time_s": 0.25}
 
 

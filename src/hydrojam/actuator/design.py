@@ -191,7 +191,7 @@ class Design(BaseModel):
     # ---------------------------------------------------------------- derived geometry
 
     @property
-    def cavity_width_mm(self) -> float:
+    def resolved_cavity_width(self) -> float:
         """Cavity width along x [mm], given or derived."""
         if self.cavity_width is not None:
             return self.cavity_width
@@ -199,7 +199,7 @@ class Design(BaseModel):
         return m * self.particle_diameter + (m + 1) * self.clearance
 
     @property
-    def cavity_length_mm(self) -> float:
+    def resolved_cavity_length(self) -> float:
         """Cavity length along the axis z [mm], given or derived."""
         if self.cavity_length is not None:
             return self.cavity_length
@@ -207,27 +207,27 @@ class Design(BaseModel):
         return pl * self.particle_diameter + (pl + 1) * self.clearance
 
     @property
-    def cavity_depth_mm(self) -> float:
+    def resolved_cavity_depth(self) -> float:
         """Cavity depth along y [mm], given or derived (used in 3D only)."""
         if self.cavity_depth is not None:
             return self.cavity_depth
         return self.particle_diameter + 2.0 * self.clearance
 
     @property
-    def length_mm(self) -> float:
+    def length(self) -> float:
         """Actuator length L = cavity_length + 2 t1 [mm]."""
-        return self.cavity_length_mm + 2.0 * self.end_wall_thickness
+        return self.resolved_cavity_length + 2.0 * self.end_wall_thickness
 
     @property
-    def width_mm(self) -> float:
+    def width(self) -> float:
         """Actuator width along x, h + 2 t0 + cavity_width [mm]."""
-        return self.strain_limit_thickness + 2.0 * self.side_wall_thickness + self.cavity_width_mm
+        return self.strain_limit_thickness + 2.0 * self.side_wall_thickness + self.resolved_cavity_width
 
     def resolved(self) -> Design:
         """A copy with cavity_width, cavity_length (and cavity_depth in 3D) written out explicitly."""
-        update = {"cavity_width": self.cavity_width_mm, "cavity_length": self.cavity_length_mm}
+        update = {"cavity_width": self.resolved_cavity_width, "cavity_length": self.resolved_cavity_length}
         if self.dimension == 3:
-            update["cavity_depth"] = self.cavity_depth_mm
+            update["cavity_depth"] = self.resolved_cavity_depth
         return self.model_copy(update=update)
 
     # ---------------------------------------------------------------- consistency
@@ -248,10 +248,10 @@ class Design(BaseModel):
                 f"cavity_depth: only with dimension = 3 (got cavity_depth {_g(self.cavity_depth)} mm "
                 f"with dimension {self.dimension})"
             )
-        fits = [("cavity_width", self.particles_per_layer, self.cavity_width_mm),
-                ("cavity_length", self.particle_layers, self.cavity_length_mm)]
+        fits = [("cavity_width", self.particles_per_layer, self.resolved_cavity_width),
+                ("cavity_length", self.particle_layers, self.resolved_cavity_length)]
         if self.dimension == 3:
-            fits.append(("cavity_depth", 1, self.cavity_depth_mm))
+            fits.append(("cavity_depth", 1, self.resolved_cavity_depth))
         for name, count, size in fits:
             need = count * d + (count + 1) * c
             if need > size * (1.0 + _REL_TOL):
@@ -265,9 +265,9 @@ class Design(BaseModel):
                 f"mesh.size: must be <= particle_diameter/4 = {_g(d / 4.0)} mm so that about 12 quadratic "
                 f"edges or more go round a particle (got {_g(h)} mm)"
             )
-        if h > self.cavity_length_mm:
+        if h > self.resolved_cavity_length:
             raise ValueError(
-                f"mesh.size: must be <= cavity_length {_g(self.cavity_length_mm)} mm (got {_g(h)} mm)"
+                f"mesh.size: must be <= cavity_length {_g(self.resolved_cavity_length)} mm (got {_g(h)} mm)"
             )
         return self
 
@@ -371,9 +371,9 @@ Run it with:   hydrojam run design.toml -o out
 Every key is optional (a missing key takes its default); a commented-out key is derived."""
 
 _DERIVED = {
-    "cavity_width": "cavity_width_mm",
-    "cavity_length": "cavity_length_mm",
-    "cavity_depth": "cavity_depth_mm",
+    "cavity_width": "resolved_cavity_width",
+    "cavity_length": "resolved_cavity_length",
+    "cavity_depth": "resolved_cavity_depth",
 }
 
 

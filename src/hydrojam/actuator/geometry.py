@@ -12,14 +12,14 @@ from hydrojam.fem.meshing import add_groups, bounding_box, generate, gmsh_sessio
 
 
 def actuator_2d(cavity_width: float, cavity_length: float, side_wall: float, end_wall: float,
-                strain_limit: float, centers, radius: float, size: float, order: int = 2) -> Mesh:
+                strain_limit: float, centres, radius: float, size: float, order: int = 2) -> Mesh:
     """Plane-strain actuator (DESIGN.md section 6), x-z plane, lengths in mm.
 
     Membrane: the rectangle [-w/2 - t0, w/2 + t0] x [-L, 0] (L = cavity_length + 2 t1) minus the
     cavity [-w/2, w/2] x [-t1 - cavity_length, -t1]; strain-limit layer [-w/2 - t0 - h, -w/2 - t0]
     x [-L, 0], bonded to the membrane (shared nodes) and split at its mid-line so that the
     mid-line is a line of nodes (the centreline of the metrics); particles: separate disks of
-    ``radius`` about ``centers`` (no shared nodes).
+    ``radius`` about ``centres`` (no shared nodes).
 
     Cell groups "membrane", "strain_limit_layer", "particle0", ...; facet groups "clamp"
     (z = 0), "free_end" (z = -L), "cavity" (the cavity's wall) and "particle<k>_boundary".
@@ -27,7 +27,7 @@ def actuator_2d(cavity_width: float, cavity_length: float, side_wall: float, end
     w, t0, t1, h = float(cavity_width), float(side_wall), float(end_wall), float(strain_limit)
     length = float(cavity_length) + 2 * t1
     x_out = w / 2 + t0
-    centers = np.atleast_2d(np.asarray(centers, dtype=float))
+    centres = np.atleast_2d(np.asarray(centres, dtype=float))
     tol = 1e-6 * length
     with gmsh_session():
         set_mesh_size(size)
@@ -38,7 +38,7 @@ def actuator_2d(cavity_width: float, cavity_length: float, side_wall: float, end
         halves = [occ.addRectangle(-x_out - h, -length, 0.0, h / 2, length),
                   occ.addRectangle(-x_out - h / 2, -length, 0.0, h / 2, length)]
         (frag, _) = occ.fragment(membrane, [(2, t) for t in halves])
-        particles = [occ.addDisk(c[0], c[1], 0.0, radius, radius) for c in centers]
+        particles = [occ.addDisk(c[0], c[1], 0.0, radius, radius) for c in centres]
         occ.synchronize()
         body = [t for d, t in frag if d == 2]
         sll = [t for t in body if bounding_box(2, t)[1, 0] <= -x_out + tol]
@@ -68,7 +68,7 @@ def particle_centres(design: Design) -> np.ndarray:
     the cavity (the clearance as the gap when the cavity is derived from the particles)."""
     d = design.particle_diameter
     m, pl = design.particles_per_layer, design.particle_layers
-    w, lc = design.cavity_width_mm, design.cavity_length_mm
+    w, lc = design.resolved_cavity_width, design.resolved_cavity_length
     gx = (w - m * d) / (m + 1)
     gz = (lc - pl * d) / (pl + 1)
     xs = -w / 2 + gx + d / 2 + np.arange(m) * (d + gx)
@@ -79,7 +79,7 @@ def particle_centres(design: Design) -> np.ndarray:
 def mesh_design(design: Design) -> Mesh:
     """The quadratic-triangle mesh of a 2D design (groups as in :func:`actuator_2d`)."""
     return actuator_2d(
-        design.cavity_width_mm, design.cavity_length_mm, design.side_wall_thickness,
+        design.resolved_cavity_width, design.resolved_cavity_length, design.side_wall_thickness,
         design.end_wall_thickness, design.strain_limit_thickness, particle_centres(design),
         design.particle_diameter / 2, design.mesh.size, order=2,
     )

@@ -78,9 +78,9 @@ RUN_FIELDS: tuple[Metric, ...] = (
     Metric("rejected_steps", "-", "load steps tried and rejected", int, "run"),
     Metric("wall_time_s", "s", "wall time of the load path and the release (meshing and writing excluded)",
            float, "run"),
-    Metric("stabilization_energy_ratio", "-",
+    Metric("stabilisation_energy_ratio", "-",
            "largest ratio of stabilisation energy to elastomer strain energy over the path", float, "run"),
-    Metric("stabilization_released", "", "the final state is an equilibrium without the viscous stabilisation",
+    Metric("stabilisation_released", "", "the final state is an equilibrium without the viscous stabilisation",
            bool, "run"),
 )
 

@@ -20,6 +20,7 @@ from hydrojam.materials.energies import Hydrogel, Material
 from hydrojam.fem.mesh import Mesh
 from hydrojam.actuator.geometry import mesh_design
 from hydrojam.actuator.metrics import (
+    STATE_METRICS,
     bending_angle_deg,
     centreline_profile,
     contacts_per_particle,
@@ -101,9 +102,9 @@ class ActuatorModel:
 
 
 def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
-    x_mid = -design.cavity_width_mm / 2 - design.side_wall_thickness - design.strain_limit_thickness / 2
+    x_mid = -design.resolved_cavity_width / 2 - design.side_wall_thickness - design.strain_limit_thickness / 2
     nodes = np.unique(mesh.cells[mesh.cell_groups["strain_limit_layer"]])
-    tol = 1e-6 * design.length_mm
+    tol = 1e-6 * design.length
     on = nodes[np.abs(mesh.points[nodes, 0] - x_mid) < tol]
     return on[np.argsort(-mesh.points[on, 1])]
 
@@ -177,15 +178,10 @@ def particle_areas(model: ActuatorModel, x: np.ndarray) -> np.ndarray:
 
 
 def measure(model: ActuatorModel, x: np.ndarray) -> dict:
-    """The metrics of DESIGN.md section 7 at positions x (n, 2) [mm].
-
-    Keys: ``bending_angle_deg`` (free-end face rotation, positive toward the strain-limit side),
-    ``tip_dx_mm``, ``tip_dz_mm`` (free-end face centroid displacement), ``curling_index`` (share
-    of the centreline's rotation in the clamp half; None while straight), ``max_curvature_per_mm``,
-    ``packing_fraction`` (particle area / cavity area), ``contacts_per_particle`` (mean
-    coordination number: particle-particle pairs count for both, particle-wall pairs once),
-    ``mean_swelling_ratio`` (particle area / as-prepared area).
-    """
+    """The metrics of DESIGN.md section 7 at positions x (n, 2) [mm]: one value per entry of
+    :data:`~hydrojam.actuator.metrics.STATE_METRICS` (names, units and meanings are defined
+    there), in that order. Contacts per particle: particle-particle pairs count for both,
+    particle-wall pairs once."""
     X = model.mesh.points
     fe, cl = model.free_end_nodes, model.centreline_nodes
     dx, dz = tip_displacement(X[fe], x[fe])
@@ -195,7 +191,7 @@ def measure(model: ActuatorModel, x: np.ndarray) -> dict:
     ref_area = model.n_particles * np.pi * model.design.particle_diameter**2 / 4
     pairs = model.contact.contact_pairs(x)
     ci = curling_index(profile)
-    return {
+    values = {
         "bending_angle_deg": bending_angle_deg(X[fe], x[fe]) + 0.0,  # + 0.0: no "-0.0" in results
         "tip_dx_mm": float(dx) + 0.0,
         "tip_dz_mm": float(dz) + 0.0,
@@ -205,3 +201,4 @@ def measure(model: ActuatorModel, x: np.ndarray) -> dict:
         "contacts_per_particle": contacts_per_particle(pairs, set(range(model.n_particles))),
         "mean_swelling_ratio": float(areas.sum() / ref_area),
     }
+    return {m.name: values[m.name] for m in STATE_METRICS}

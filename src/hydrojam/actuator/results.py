@@ -30,7 +30,7 @@ from xml.sax.saxutils import quoteattr
 import meshio
 import numpy as np
 
-from hydrojam._io import atomic_path, make_folder, write_text_atomic
+from hydrojam._io import atomic_path, finite_or_none, make_folder, write_text_atomic
 from hydrojam.actuator.design import write_design
 from hydrojam.actuator.fields import cell_fields
 from hydrojam.actuator.metrics import HISTORY_FIELDS, STATE_METRICS, centreline_profile, metric_names
@@ -40,18 +40,6 @@ from hydrojam.actuator.simulate import SimulationResult, StepState
 
 #: the columns of history.csv (:data:`hydrojam.actuator.metrics.HISTORY_FIELDS`)
 HISTORY_COLUMNS = [m.name for m in HISTORY_FIELDS]
-
-
-def _json_safe(v):
-    if isinstance(v, dict):
-        return {k: _json_safe(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_json_safe(x) for x in v]
-    if isinstance(v, (np.floating, float)):
-        return float(v) if math.isfinite(v) else None
-    if isinstance(v, np.integer):
-        return int(v)
-    return v
 
 
 def _xyz(p2: np.ndarray) -> np.ndarray:
@@ -85,7 +73,7 @@ def history_row(state: StepState) -> dict:
     row = {"step": state.index, "s": state.s, "mu_kT": state.mu, "temperature_K": state.T,
            "newton_iterations": state.iterations, "wall_time_s": state.wall_time_s}
     row.update({x.name: m.get(x.name) for x in STATE_METRICS})
-    safe = {k: _json_safe(row.get(k)) for k in HISTORY_COLUMNS}
+    safe = {k: finite_or_none(row.get(k)) for k in HISTORY_COLUMNS}
     return {k: ("" if v is None else v) for k, v in safe.items()}
 
 
@@ -155,8 +143,8 @@ class ResultWriter:
                 for a, b, r, k in zip(prof.reference_arc_length, prof.arc_length, prof.rotation, prof.curvature)]
         write_text_atomic(self.out / "centreline.csv",
                           _csv(rows, ["reference_arc_length_mm", "arc_length_mm", "rotation_deg", "curvature_per_mm"]))
-        metrics = _json_safe(ordered_metrics(result.metrics))
-        metrics["timings_s"] = _json_safe(result.timings)
+        metrics = finite_or_none(ordered_metrics(result.metrics))
+        metrics["timings_s"] = finite_or_none(result.timings)
         if plot:
             plot_actuator(model, final, self.out / "final.png")
         write_text_atomic(self.out / "metrics.json", json.dumps(metrics, indent=2, allow_nan=False) + "\n")

@@ -8,21 +8,22 @@ s = 1 was reached (if not, why, with the last converged state kept) and where th
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from hydrojam._io import finite_or_none
+from hydrojam.actuator.metrics import RUN_FIELDS
 from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
 from hydrojam.fem.linsolve import LinearSolver
 from hydrojam.fem.newton import NewtonOptions, minimize
 from hydrojam.fem.path import PathOptions, solve_path
-from hydrojam.fem.terms import EnergyTerm, ViscousStabilization, by_name, lumped_volumes
+from hydrojam.fem.terms import EnergyTerm, ViscousStabilisation, by_name, lumped_volumes
 
-#: viscous stabilisation c = STABILIZATION x G_membrane / d [N/mm^3] (docs/actuator.md)
-STABILIZATION = 0.01
+#: viscous stabilisation c = STABILISATION x G_membrane / d [N/mm^3] (docs/actuator.md)
+STABILISATION = 0.01
 
 #: load-path settings for actuators: many contacts change during a step, so a step may take
 #: many Newton iterations; a long attempt is cheaper than halving the step and starting over.
@@ -113,7 +114,7 @@ class SimulationResult:
     newton_iterations: int
     rejected_steps: int
     timings: dict = field(default_factory=dict)
-    stabilization: dict = field(default_factory=dict)
+    stabilisation: dict = field(default_factory=dict)
 
     @property
     def final(self) -> StepState:
@@ -122,28 +123,23 @@ class SimulationResult:
 
     @property
     def metrics(self) -> dict:
-        """Final metrics plus run information; no NaN (undefined values are None)."""
-        out = {k: _finite_or_none(v) for k, v in self.final.metrics.items()}
-        out.update(
-            converged=self.converged,
-            message=self.message,
-            s_reached=self.final.s,
-            temperature_K=self.final.T,
-            mu_kT=self.final.mu,
-            load_steps=len(self.states) - 1,
-            newton_iterations=self.newton_iterations,
-            rejected_steps=self.rejected_steps,
-            wall_time_s=self.wall_time_s,
-            stabilization_energy_ratio=self.stabilization.get("max_energy_ratio", 0.0),
-            stabilization_released=self.stabilization.get("released", True),
-        )
-        return out
-
-
-def _finite_or_none(v):
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    return v
+        """Final metrics (:data:`~hydrojam.actuator.metrics.STATE_METRICS`) plus the run fields
+        (:data:`~hydrojam.actuator.metrics.RUN_FIELDS`), in the registry's order; undefined values
+        are None, never NaN."""
+        run = {
+            "converged": self.converged,
+            "message": self.message,
+            "s_reached": self.final.s,
+            "temperature_K": self.final.T,
+            "mu_kT": self.final.mu,
+            "load_steps": len(self.states) - 1,
+            "newton_iterations": self.newton_iterations,
+            "rejected_steps": self.rejected_steps,
+            "wall_time_s": self.wall_time_s,
+            "stabilisation_energy_ratio": self.stabilisation.get("max_energy_ratio", 0.0),
+            "stabilisation_released": self.stabilisation.get("released", True),
+        }
+        return finite_or_none({**self.final.metrics, **{m.name: run[m.name] for m in RUN_FIELDS}})
 
 
 def simulate(
@@ -151,7 +147,7 @@ def simulate(
     options: PathOptions = ACTUATOR_PATH,
     on_step: Callable[[StepState], None] | None = None,
     on_progress: Callable[[float], None] | None = None,
-    stabilization: float = STABILIZATION,
+    stabilisation: float = STABILISATION,
 ) -> SimulationResult:
     """Follow the stimulus from the as-prepared state (s = 0) to the target (s = 1).
 
@@ -159,19 +155,19 @@ def simulate(
     as they come; ``on_progress(s)`` after every attempt (a progress bar). Never raises on
     non-convergence: the result says so and keeps the last converged state.
 
-    ``stabilization``: viscous damping c = stabilization x G_membrane / d [N/mm^3] of every
-    node's motion within a load step (:class:`hydrojam.fem.terms.ViscousStabilization`), released at
+    ``stabilisation``: viscous damping c = stabilisation x G_membrane / d [N/mm^3] of every
+    node's motion within a load step (:class:`hydrojam.fem.terms.ViscousStabilisation`), released at
     s = 1 so that the final state is an equilibrium without it (0: none). The final state
     replaces the last stabilised one in ``states`` (same index, passed to ``on_step`` again).
     """
     t_start = time.perf_counter()
     elastic, contact = _Clock(), _Clock()
     stab = None
-    if stabilization > 0:
+    if stabilisation > 0:
         mesh = model.mesh
         w = lumped_volumes(mesh.points, mesh.cells, mesh.cell_volumes())
-        c = stabilization * model.membrane.shear_modulus_ref / model.design.particle_diameter
-        stab = ViscousStabilization(w, c, mesh.dim)
+        c = stabilisation * model.membrane.shear_modulus_ref / model.design.particle_diameter
+        stab = ViscousStabilisation(w, c, mesh.dim)
     base = model.problem(() if stab is None else (stab,))
     clocks = {"elastic": elastic, "contact": contact}
 
@@ -230,10 +226,10 @@ def simulate(
     if not released:
         message += ("; the stabilisation could not be fully released at s = 1: the final state keeps "
                     "a viscous force above the tolerance")
-    stabilization_info = {"damping_N_per_mm3": 0.0 if stab is None else stab.damping,
+    stabilisation_info = {"damping_N_per_mm3": 0.0 if stab is None else stab.damping,
                           "max_energy_ratio": ratio[0], "released": released}
     return SimulationResult(model, states, res.converged, message, wall, newton_iterations,
-                            res.rejected_steps, timings, stabilization_info)
+                            res.rejected_steps, timings, stabilisation_info)
 
 
 def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80):

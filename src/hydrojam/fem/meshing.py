@@ -295,12 +295,12 @@ def rectangle(lx: float, ly: float, size: float, order: int = 2, origin=(0.0, 0.
         return generate(2, order)
 
 
-def disk(radius: float, size: float, order: int = 2, center=(0.0, 0.0)) -> Mesh:
-    """Disk of ``radius`` (mm) about ``center`` in the x-z plane. Cell group "body", facet
+def disk(radius: float, size: float, order: int = 2, centre=(0.0, 0.0)) -> Mesh:
+    """Disk of ``radius`` (mm) about ``centre`` in the x-z plane. Cell group "body", facet
     group "boundary"."""
     with gmsh_session():
         set_mesh_size(size)
-        s = gmsh.model.occ.addDisk(float(center[0]), float(center[1]), 0.0, radius, radius)
+        s = gmsh.model.occ.addDisk(float(centre[0]), float(centre[1]), 0.0, radius, radius)
         gmsh.model.occ.synchronize()
         curves = [t for _, t in gmsh.model.getBoundary([(2, s)], oriented=False)]
         add_groups(2, {"body": [s]}, {"boundary": curves})
@@ -323,11 +323,11 @@ def box(lx: float, ly: float, lz: float, size: float, order: int = 2, origin=(0.
         return generate(3, order)
 
 
-def ball(radius: float, size: float, order: int = 2, center=(0.0, 0.0, 0.0)) -> Mesh:
-    """Ball of ``radius`` (mm) about ``center``. Cell group "body", facet group "boundary"."""
+def ball(radius: float, size: float, order: int = 2, centre=(0.0, 0.0, 0.0)) -> Mesh:
+    """Ball of ``radius`` (mm) about ``centre``. Cell group "body", facet group "boundary"."""
     with gmsh_session():
         set_mesh_size(size)
-        v = gmsh.model.occ.addSphere(*[float(c) for c in center], radius)
+        v = gmsh.model.occ.addSphere(*[float(c) for c in centre], radius)
         gmsh.model.occ.synchronize()
         faces = [t for _, t in gmsh.model.getBoundary([(3, v)], oriented=False)]
         add_groups(3, {"body": [v]}, {"boundary": faces})
@@ -356,18 +356,18 @@ def bonded_rectangles(lx1: float, lx2: float, ly: float, size: float, order: int
         return generate(2, order)
 
 
-def disks(centers, radii, size: float, order: int = 2) -> Mesh:
+def disks(centres, radii, size: float, order: int = 2) -> Mesh:
     """Separate disks (mm) that share no nodes (separate bodies, e.g. for contact). Cell groups
     "disk0", "disk1", ...; facet groups "disk0_boundary", ... ``radii`` may be a scalar.
     Overlapping disks are rejected."""
-    centers = np.atleast_2d(np.asarray(centers, dtype=float))
-    radii = np.broadcast_to(np.asarray(radii, dtype=float), (len(centers),))
-    for i, j in itertools.combinations(range(len(centers)), 2):
-        if np.linalg.norm(centers[i] - centers[j]) < radii[i] + radii[j]:
+    centres = np.atleast_2d(np.asarray(centres, dtype=float))
+    radii = np.broadcast_to(np.asarray(radii, dtype=float), (len(centres),))
+    for i, j in itertools.combinations(range(len(centres)), 2):
+        if np.linalg.norm(centres[i] - centres[j]) < radii[i] + radii[j]:
             raise ValueError(f"disks {i} and {j} overlap")
     with gmsh_session():
         set_mesh_size(size)
-        tags = [gmsh.model.occ.addDisk(c[0], c[1], 0.0, r, r) for c, r in zip(centers, radii)]
+        tags = [gmsh.model.occ.addDisk(c[0], c[1], 0.0, r, r) for c, r in zip(centres, radii)]
         gmsh.model.occ.synchronize()
         cell_groups, facet_groups = {}, {}
         for k, s in enumerate(tags):

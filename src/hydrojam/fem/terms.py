@@ -169,7 +169,7 @@ def body_load(reference: np.ndarray, cells: np.ndarray, element, force_density) 
     return LinearTerm(f, reference)
 
 
-class ViscousStabilization(EnergyTerm):
+class ViscousStabilisation(EnergyTerm):
     """Artificial viscous damping of a load step (as ABAQUS's *STATIC, STABILIZE): the energy
     c/2 sum_a w_a |x_a - x_a^n|^2, with x^n the state at the start of the step (``begin_step``),
     w_a [mm^2 in 2D, mm^3 in 3D] the nodal share of the reference volume and c [N/mm^4 in 3D;

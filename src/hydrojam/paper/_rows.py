@@ -3,8 +3,9 @@ numbers that may be missing, a point's status, one sweep's rows, a parameter val
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
+
+from hydrojam._io import finite_or_none
 
 
 def number(v) -> float | None:
@@ -15,7 +16,7 @@ def number(v) -> float | None:
         f = float(v)
     except (TypeError, ValueError):
         return None
-    return f if math.isfinite(f) else None
+    return finite_or_none(f)
 
 
 def truthy(v) -> bool | None:

@@ -66,7 +66,7 @@ def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
         status = point_status(r)
         conv = truthy(r.get("converged"))
         note = status if status != "failed" else f"failed: {r.get('error') or 'no result'}"
-        if status == "ok" and truthy(r.get("stabilization_released")) is False:
+        if status == "ok" and truthy(r.get("stabilisation_released")) is False:
             note += " (stabilisation not released)"
         lines.append(
             f"| {fmt_param(number(r.get(sw.field)))} | {_cell(r.get('bending_angle_deg'))} | "

@@ -39,7 +39,7 @@ from hydrojam._validation import _short, explain_error, submodel
 from hydrojam.actuator.design import Design, DesignError, _merge, _toml, default_design, design_from_dict, load_design
 
 #: bump when what a cached point holds changes: every key changes, so nothing old is reused
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2
 
 _NAME_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-")
 _TOP_KEYS = ("name", "base", "design", "sweep")

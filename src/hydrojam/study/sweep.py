@@ -44,18 +44,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hydrojam._io import atomic_path, read_toml, write_text_atomic
+from hydrojam._io import atomic_path, finite_or_none, read_toml, write_text_atomic
 from hydrojam._validation import owner_model
 from hydrojam.actuator.design import Design, DesignError
 from hydrojam.actuator.metrics import STATE_METRICS, metric
-from hydrojam.actuator.results import _json_safe
 from hydrojam.study.spec import Point, Study, StudyError, write_study
 
 #: seconds to wait for a dask scheduler given by address
 CONNECT_TIMEOUT_S = 10.0
 
 #: the run fields the table carries after the state metrics, in column order
-TABLE_RUN_FIELDS = ("converged", "stabilization_released", "s_reached", "load_steps", "newton_iterations")
+TABLE_RUN_FIELDS = ("converged", "stabilisation_released", "s_reached", "load_steps", "newton_iterations")
 
 #: metric columns of the table, with their types: every state metric, then TABLE_RUN_FIELDS
 #: (:mod:`hydrojam.actuator.metrics`; the values from metrics.json / SimulationResult.metrics)
@@ -111,7 +110,7 @@ def _record(key: str, status: str, error: str | None, metrics: dict | None, wall
             point_time: float | None) -> dict:
     from hydrojam import __version__
 
-    return _json_safe({"key": key, "status": status, "error": error, "metrics": metrics, "wall_time_s": wall,
+    return finite_or_none({"key": key, "status": status, "error": error, "metrics": metrics, "wall_time_s": wall,
                        "point_time_s": point_time, "hydrojam_version": __version__})
 
 
@@ -127,7 +126,7 @@ def _execute(point_fn: Callable[[Design, Path], dict], design: Design, point_dir
         metrics = point_fn(design, folder)
         if not isinstance(metrics, dict):
             raise TypeError(f"the point function returned {type(metrics).__name__}, not a dict of metrics")
-        metrics = _json_safe(dict(metrics))
+        metrics = finite_or_none(dict(metrics))
         json.dumps(metrics, allow_nan=False)
     except Exception as err:  # a failing point never stops the others
         elapsed = time.perf_counter() - t0
@@ -184,8 +183,7 @@ def _coerce(value: Any, kind: type) -> Any:
         if kind is int:
             return int(value) if float(value) == int(value) else None
         if kind is float:
-            v = float(value)
-            return v if v == v and abs(v) != float("inf") else None
+            return finite_or_none(float(value))
         return str(value)
     except (TypeError, ValueError, OverflowError):
         return None
