@@ -102,7 +102,7 @@ from hydrojam.fem.linsolve import LinearSolver  # noqa: E402
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean  # noqa: E402
 from hydrojam.fem.mesh import Mesh, merge  # noqa: E402
 from hydrojam.fem.solver import Problem, Timings, fixed, solve_path  # noqa: E402
-from hydrojam.fem.terms import EnergyTerm, by_name  # noqa: E402
+from hydrojam.fem.terms import TimedTerm, by_name  # noqa: E402
 from hydrojam.materials.swelling import constrained_swelling  # noqa: E402
 
 PARAMS = HydrogelParams()
@@ -168,7 +168,7 @@ class Case:
         solid = self.solid.with_materials({"gel": gel})
         if meter is None:
             return [solid, self.contact]
-        return [MeteredTerm(solid, "elastic", meter), MeteredTerm(self.contact, "contact", meter)]
+        return [TimedTerm(solid, meter.recorder("elastic")), TimedTerm(self.contact, meter.recorder("contact"))]
 
     def problem(self, meter: "Meter | None" = None) -> Problem:
         return Problem(self.mesh.points, lambda s: self.terms(s, meter), [fixed(self.wall_nodes, 2)],
@@ -221,45 +221,9 @@ class Meter:
         self.seconds[key] += seconds
         self.calls[key] += 1
 
-
-class MeteredTerm(EnergyTerm):
-    """An energy term whose protocol members are timed into a Meter under "<name> <method>";
-    each is the wrapped term's."""
-
-    def __init__(self, term: EnergyTerm, name: str, meter: Meter):
-        self._term, self._name, self._meter = term, name, meter
-
-    @property
-    def name(self) -> str:
-        return self._term.name
-
-    @property
-    def fallback_projection(self) -> bool:
-        return self._term.fallback_projection
-
-    def _timed(self, method: str, *args):
-        t0 = time.perf_counter()
-        out = getattr(self._term, method)(*args)
-        self._meter.add(f"{self._name} {method}", time.perf_counter() - t0)
-        return out
-
-    def energy(self, x):
-        return self._timed("energy", x)
-
-    def gradient(self, x):
-        return self._timed("gradient", x)
-
-    def hessian(self, x, project=False):
-        return self._timed("hessian", x, project)
-
-    def max_step(self, x, dx):
-        return self._timed("max_step", x, dx)
-
-    def begin_step(self, x):
-        return self._timed("begin_step", x)
-
-    def force_flux(self, x, gradient=None):
-        return self._timed("force_flux", x, gradient)
+    def recorder(self, name: str):
+        """A TimedTerm record that files each call under "<name> <method>"."""
+        return lambda method, seconds: self.add(f"{name} {method}", seconds)
 
 
 @contextmanager

@@ -31,7 +31,8 @@ too (minus their work), so a new physics is a new term, not a branch in the solv
 from __future__ import annotations
 
 import abc
-from collections.abc import Iterable
+import time
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -120,6 +121,47 @@ def surface_load(reference: np.ndarray, facets: np.ndarray, traction, facet_type
     f = np.zeros_like(reference, dtype=float)
     np.add.at(f, facets.ravel(), (nodal.ravel()[:, None] * t[None, :]))
     return LinearTerm(f, reference)
+
+
+class TimedTerm(EnergyTerm):
+    """Another term with every protocol member passed through, and the wall time [s] of each call
+    reported as ``record(method_name, seconds)`` (the time shares of simulations and benchmarks)."""
+
+    def __init__(self, term: EnergyTerm, record: Callable[[str, float], None]):
+        self._term, self._record = term, record
+
+    @property
+    def name(self) -> str:
+        return self._term.name
+
+    @property
+    def fallback_projection(self) -> bool:
+        return self._term.fallback_projection
+
+    def _timed(self, method: str, *args):
+        t0 = time.perf_counter()
+        try:
+            return getattr(self._term, method)(*args)
+        finally:
+            self._record(method, time.perf_counter() - t0)
+
+    def energy(self, x):
+        return self._timed("energy", x)
+
+    def gradient(self, x):
+        return self._timed("gradient", x)
+
+    def hessian(self, x, project=False):
+        return self._timed("hessian", x, project)
+
+    def max_step(self, x, dx):
+        return self._timed("max_step", x, dx)
+
+    def begin_step(self, x):
+        return self._timed("begin_step", x)
+
+    def force_flux(self, x, gradient=None):
+        return self._timed("force_flux", x, gradient)
 
 
 @dataclass(frozen=True)
