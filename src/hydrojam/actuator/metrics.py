@@ -319,15 +319,19 @@ def curling_index(profile: CentrelineProfile) -> float | None:
     return float((half - rot[0]) / total)
 
 
-def polygon_area(points) -> float:
-    """Area [mm^2] of a simple polygon (shoelace formula, absolute value).
+def polygon_area(points, segments=None) -> float:
+    """Area [mm^2] enclosed by a closed polygon (shoelace formula, absolute value).
 
-    points: (m, 2) vertices [mm] in order around the polygon (either sense), not repeating the
-    first vertex at the end.
+    points: (m, 2) vertices [mm]. segments: (k, 2) indices of the polygon's edges in any order,
+    each oriented consistently around it (a mesh's boundary facets); None: the points are the
+    vertices in order around the polygon (either sense), the first not repeated at the end.
     """
     p = _as_points(points, "points")
-    x, z = p[:, 0], p[:, 1]
-    return float(0.5 * abs(np.dot(x, np.roll(z, -1)) - np.dot(z, np.roll(x, -1))))
+    if segments is None:
+        idx = np.arange(len(p))
+        segments = np.column_stack((idx, np.roll(idx, -1)))
+    a, b = p[segments[:, 0]], p[segments[:, 1]]
+    return abs(0.5 * float(np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1])))
 
 
 def packing_fraction(particle_area: float, cavity_area: float) -> float:

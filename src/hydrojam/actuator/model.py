@@ -26,6 +26,7 @@ from hydrojam.actuator.metrics import (
     contacts_per_particle,
     curling_index,
     packing_fraction,
+    polygon_area,
     tip_displacement,
 )
 from hydrojam.fem.solver import Problem, fixed
@@ -165,11 +166,6 @@ def build_model(design: Design) -> ActuatorModel:
 # Measurements on a state
 
 
-def _signed_area(x: np.ndarray, segments: np.ndarray) -> float:
-    a, b = x[segments[:, 0]], x[segments[:, 1]]
-    return 0.5 * float(np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]))
-
-
 def particle_areas(model: ActuatorModel, x: np.ndarray) -> np.ndarray:
     """Current area of each particle (n_particles,) [mm^2] (integrated det F over the reference)."""
     per_cell = model.solid.current_volumes(x)[PARTICLES]  # the particles' cells, particle by particle
@@ -187,7 +183,7 @@ def measure(model: ActuatorModel, x: np.ndarray) -> dict:
     dx, dz = tip_displacement(X[fe], x[fe])
     profile = centreline_profile(X[cl], x[cl])
     areas = particle_areas(model, x)
-    cavity = abs(_signed_area(x, model.cavity_segments))
+    cavity = polygon_area(x, model.cavity_segments)
     ref_area = model.n_particles * np.pi * model.design.particle_diameter**2 / 4
     pairs = model.contact.contact_pairs(x)
     ci = curling_index(profile)
