@@ -400,6 +400,7 @@ def reproduce(
     quick: bool = typer.Option(False, "--quick", help="Coarser mesh and fewer points (12 rows, 10 designs): minutes, not hours."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes, one thread each (default: one per CPU)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of a running dask scheduler, e.g. tcp://10.0.0.5:8786."),
+    sweep: list[str] = typer.Option([], "--sweep", help="Run only this sweep (repeatable): temperature, particle_layers, strain_limit_thickness; a later run into the same folder adds the others."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
 ) -> None:
     """Reproduce the paper's Section IV (2D): the temperature, particle-layer and strain-limit
@@ -409,10 +410,16 @@ def reproduce(
     any failed or stopped early (the report is still written), 2 on bad input.
     """
     from hydrojam.paper.reproduce import reproduce as run_reproduce
+    from hydrojam.paper.study import paper_study
 
+    try:
+        paper_study(quick, sweep or None)
+    except ValueError as err:
+        raise InputError(f"--sweep: {err}") from None
     _check_workers(workers, scheduler, out)
     _run_with_progress(lambda on_point: run_reproduce(out, quick=quick, workers=workers, scheduler=scheduler,
-                                                      on_point=on_point), out, quiet, report=True)
+                                                      sweeps=sweep or None, on_point=on_point),
+                       out, quiet, report=True)
 
 
 #: errno values of file-system errors, reported as one line (exit status 2) rather than a traceback

@@ -55,3 +55,40 @@ def test_reproduce_command_refuses_bad_options_before_any_work(tmp_path, capsys,
     out = tmp_path / "out"
     assert main(["reproduce", "--quick", "-o", str(out), *args]) == 2
     assert "--workers" in capsys.readouterr().err and not out.exists()
+
+
+def _cache_points(out, study):
+    import json
+
+    for p in study.points():
+        if (out / "points" / p.key / "point.json").exists():
+            continue
+        metrics = paper_like(p.design)
+        metrics.update(converged=True, stabilisation_released=True, newton_iterations=900)
+        write_point(out, {"point_dir": f"points/{p.key}"}, bend=-0.5, design=p.design)
+        record = {"key": p.key, "status": "ok", "error": None, "metrics": metrics, "wall_time_s": 60.0}
+        (out / "points" / p.key / "point.json").write_text(json.dumps(record))
+
+
+def test_reproduce_one_sweep_then_the_rest_into_the_same_folder(tmp_path):
+    """--sweep temperature runs only the temperature sweep (its claims decided, the others
+    undetermined); a later full run into the same folder adds the other sweeps."""
+    from hydrojam.cli import main
+
+    _cache_points(tmp_path, pstudy.paper_study(quick=True, sweeps=["temperature"]))
+    assert main(["reproduce", "--quick", "--sweep", "temperature", "-o", str(tmp_path), "--quiet"]) == 0
+    assert sorted(p.name for p in (tmp_path / "figures").glob("*.png")) == ["temperature_shapes.png",
+                                                                          "temperature_trends.png"]
+    _cache_points(tmp_path, pstudy.paper_study(quick=True))
+    table, _ = reproduce(tmp_path, quick=True)
+    assert {r["sweep"] for r in table.rows} == {"temperature", "particle_layers", "strain_limit_thickness"}
+    assert len(list((tmp_path / "figures").glob("*.png"))) == 6
+
+
+def test_reproduce_refuses_an_unknown_sweep(tmp_path, capsys):
+    from hydrojam.cli import main
+
+    out = tmp_path / "out"
+    assert main(["reproduce", "--quick", "--sweep", "temprature", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--sweep" in err and "temperature, particle_layers, strain_limit_thickness" in err and not out.exists()

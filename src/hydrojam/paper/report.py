@@ -132,11 +132,13 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
           f"T = {base.stimulus.temperature:g} K, d = {base.particle_diameter:g} mm, frictionless), "
           f"2D plane strain (particles are cylinders), mesh size {base.mesh.size:g} mm (quadratic triangles).",
           ]
+    rerun = f"`hydrojam reproduce{' --quick' if quick else ''} -o {out}`"
     for sw in PAPER_SWEEPS:
         vals = sorted({v for v in (number(r.get(sw.field)) for r in rows_of(table, sw.name)) if v is not None})
+        not_run = "" if vals else f" **Not run**: {rerun} adds it, reusing the finished points."
         vals = vals or (sw.quick_values if quick else sw.values)
         L.append(f"- {sw.label}: {', '.join(f'{v:g}' for v in vals)} {'' if sw.unit == 'layers' else sw.unit}"
-                 .rstrip() + f" ({sw.figures}).")
+                 .rstrip() + f" ({sw.figures}).{not_run}")
     L += [f"- {n_points} distinct points (the base point is shared by the three sweeps): {counts['ok']} converged, "
           f"{counts['not_converged']} not converged, {counts['failed']} failed.",
           f"- Workers: {_workers_text(workers, scheduler)}; "
@@ -152,7 +154,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                 L += [f"![{what}: {sw.label}]({name})", ""]
             else:
                 L += [f"*{what} figure not written ({name}).*", ""]
-        L += (_points_table(rows, sw) if rows else ["*No points of this sweep in the table.*"]) + [""]
+        L += (_points_table(rows, sw) if rows else [f"*No points of this sweep in the table: not run ({rerun} adds it).*"]) + [""]
     L += ["## The paper's statements and hydrojam", ""]
     L += ["| # | paper (Fig.) | hydrojam computed | verdict | why (for disagree) |", "|---|---|---|---|---|"]
     for c in results:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from hydrojam.paper.figures import write_figures
@@ -22,15 +22,16 @@ __all__ = ["reproduce"]
 
 
 def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | None = None,
-              scheduler: str | None = None,
+              scheduler: str | None = None, sweeps: Sequence[str] | None = None,
               on_point: Callable[[PointOutcome, int, int], None] | None = None) -> tuple[SweepTable, Path]:
     """Run the Section IV study into ``out`` (:func:`hydrojam.study.sweep.run_sweep` with
-    ``workers``, ``scheduler`` and ``on_point``; quick: a subset on a 4 mm mesh), write the
+    ``workers``, ``scheduler`` and ``on_point``; quick: a subset on a 4 mm mesh; ``sweeps``: only
+    those named, the others can be added by a later call into the same folder), write the
     figures into ``OUT/figures/`` and ``OUT/report.md``; returns (SweepTable, report path).
     The report's wall time [s] is this call's."""
     out = Path(out)
     t0 = time.perf_counter()
-    study = paper_study(quick)
+    study = paper_study(quick, sweeps)
     table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point)
     write_figures(out, table)
     report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler,

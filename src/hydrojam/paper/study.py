@@ -9,6 +9,7 @@ Units: mm, K.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from hydrojam.actuator.design import Design, apply_overrides, default_design
@@ -96,9 +97,14 @@ def paper_points(quick: bool = False) -> dict[str, dict[str, list]]:
     return {s.name: {s.field: list(s.quick_values if quick else s.values)} for s in PAPER_SWEEPS}
 
 
-def paper_study(quick: bool = False) -> Study:
+def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None) -> Study:
     """The Section IV study as a :class:`hydrojam.study.spec.Study` named "paper" ("paper-quick"):
-    sweeps "temperature", "particle_layers", "strain_limit_thickness" round :func:`paper_base`.
-    The base point (275 K, PL 5, h 8 mm) lies in all three."""
-    sweeps = [SweepSpec(name=name, vary=vary) for name, vary in paper_points(quick).items()]
+    sweeps "temperature", "particle_layers", "strain_limit_thickness" round :func:`paper_base`
+    (``sweeps``: only those named, in the paper's order; ValueError naming the allowed ones for
+    an unknown name). The base point (275 K, PL 5, h 8 mm) lies in all three."""
+    points = paper_points(quick)
+    unknown = [s for s in (sweeps or ()) if s not in points]
+    if unknown:
+        raise ValueError(f"unknown sweep {', '.join(map(repr, unknown))}; allowed: {', '.join(points)}")
+    sweeps = [SweepSpec(name=name, vary=vary) for name, vary in points.items() if sweeps is None or name in sweeps]
     return Study(name="paper-quick" if quick else "paper", base=paper_base(quick), sweeps=sweeps)
