@@ -366,33 +366,13 @@ def test_newton_reports_how_it_ended_as_a_status():
     assert bad.status is NewtonStatus.INADMISSIBLE_START and not bad.converged
 
 
-def test_the_free_block_is_scipys_fancy_indexing():
-    """FreeBlock (one gather per sparsity pattern) against SciPy's H[fidx][:, fidx]: the same
-    arrays exactly, over matrices whose pattern changes and returns."""
-    from hydrojam.fem.newton import FreeBlock
-
-    rng = np.random.default_rng(3)
-    n = 40
-    fidx = np.flatnonzero(rng.random(n) < 0.7)
-    block = FreeBlock(fidx)
-    patterns = [sp.random(n, n, density=0.2, random_state=k, format="csr") for k in range(3)]
-    for k in (0, 0, 1, 0, 2, 2):
-        H = patterns[k].copy()
-        H.data = rng.standard_normal(H.nnz)
-        H = H + H.T
-        got, want = block(H), sp.csr_matrix(H)[fidx][:, fidx]
-        assert got.shape == want.shape
-        for a in ("indptr", "indices", "data"):
-            assert np.array_equal(getattr(got, a), getattr(want, a))
-
-
 def test_a_retried_direction_reassembles_only_the_projected_terms():
     """The adaptive fallback re-assembles the Hessian of the terms that ask for projection
     (project=True) and reuses every other term's Hessian of the iteration, the same matrices as
     re-assembling them: counted calls, and the direction compared with the direction from a
     Hessian summed afresh."""
     from hydrojam.fem.linsolve import LinearSolver
-    from hydrojam.fem.newton import FreeBlock, _direction
+    from hydrojam.fem.newton import _direction
     from hydrojam.fem.terms import EnergyTerm
 
     calls = []
@@ -417,14 +397,13 @@ def test_a_retried_direction_reassembles_only_the_projected_terms():
     terms = [Counted(solid_H, "solid", False), Counted(contact_H, "contact", True)]
     x = np.zeros((2, 2))
     fidx = np.arange(n)
-    block = FreeBlock(fidx)
     hessians = [t.hessian(x) for t in terms]
-    Hff = block(sum(hessians))
+    Hff = sp.csr_matrix(sum(hessians))[fidx][:, fidx]
     g = np.array([0.0, 1.0, -0.5, 0.0])  # the exact Hessian's step climbs along (0, 1, -1, 0)
     calls.clear()
     opts = NewtonOptions()
     dx, slope, _ = _direction(terms, x, hessians, Hff, np.abs(Hff.diagonal()), g, np.linalg.norm(g), 0.0,
-                              block, LinearSolver("scipy"), opts)
+                              fidx, LinearSolver("scipy"), opts)
     assert calls == [("contact", True)]
     assert slope < 0
     K = sp.csr_matrix(solid_H + np.abs(contact_H)) + sp.diags(opts.regularisation * np.abs(Hff.diagonal()).mean() * np.ones(n))
