@@ -39,6 +39,11 @@ class _Pardiso:
     this class, so an upgrade is reviewed here. Real symmetric indefinite (mtype -2) on the upper
     triangle, called with the 1-based index arrays of the pattern prepared once per pattern."""
 
+    settings: dict[int, int] = {}
+    """PARDISO's iparm (1-based index: value) over MKL's defaults for mtype -2 (pardisoinit;
+    among them iparm(2) = 3, METIS ordering, and iparm(8) = 2, two refinement steps always).
+    Any change here changes round-off only; docs/solver.md gives the measurements."""
+
     _mkl_rt: str | None = None
     """Path of the MKL runtime found by the first handle: later handles skip pypardiso's search
     of the whole environment for it (a recursive glob, about 0.1-0.3 s a handle)."""
@@ -61,7 +66,14 @@ class _Pardiso:
             self._ps = pypardiso.PyPardisoSolver(mtype=-2)
         _Pardiso._mkl_rt = self._ps.libmkl._name
         self._ps.set_statistical_info_off()
+        init = self._ps.libmkl.pardisoinit
+        init.restype = None
+        init(self._ps.pt.ctypes.data_as(ctypes.POINTER(self._ps._pt_type[0])),
+             ctypes.byref(ctypes.c_int32(self._ps.mtype)),
+             self._ps.iparm.ctypes.data_as(ctypes.POINTER(ctypes.c_int32)))
         self._ps.set_iparm(12, 0)  # CSR input, not transposed (what pypardiso's _check_A sets)
+        for i, value in self.settings.items():
+            self._ps.iparm[i - 1] = value
         setter = getattr(self._ps.libmkl, "MKL_Set_Num_Threads", None)
         if setter is not None:
             setter(ctypes.c_int(threads))
