@@ -135,3 +135,22 @@ def test_unsorted_and_duplicate_entries_are_summed(method):
     b = np.array([1.0, 2.0, 3.0])
     x = LinearSolver(method).solve(K, b)
     assert np.allclose(x, np.linalg.solve(K.toarray(), b), rtol=1e-12, atol=0)
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_later_handles_reuse_the_mkl_found_first_and_leave_the_environment_alone(monkeypatch):
+    """A second handle loads the MKL runtime the first one found (no search of the environment)
+    and solves like the first; PYPARDISO_MKL_RT is set only while a handle is constructed."""
+    import os
+
+    from hydrojam.fem.linsolve import _Pardiso
+
+    monkeypatch.delenv("PYPARDISO_MKL_RT", raising=False)
+    K = sp.csr_matrix(np.array([[2.0, 1.0], [1.0, -3.0]]))
+    b = np.array([1.0, 2.0])
+    first, second = LinearSolver("pardiso"), LinearSolver("pardiso")
+    x1, x2 = first.solve(K, b), second.solve(K, b)
+    assert second._pardiso._ps.libmkl._name == _Pardiso._mkl_rt
+    assert "PYPARDISO_MKL_RT" not in os.environ
+    assert np.array_equal(x1, x2)
+    assert np.allclose(x1, np.linalg.solve(K.toarray(), b), rtol=1e-12, atol=0)

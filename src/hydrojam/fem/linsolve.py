@@ -61,7 +61,7 @@ class _Pardiso:
             try:
                 self._ps = pypardiso.PyPardisoSolver(mtype=-2)
             finally:
-                del os.environ["PYPARDISO_MKL_RT"]
+                os.environ.pop("PYPARDISO_MKL_RT", None)
         else:
             self._ps = pypardiso.PyPardisoSolver(mtype=-2)
         _Pardiso._mkl_rt = self._ps.libmkl._name
