@@ -154,3 +154,21 @@ def test_later_handles_reuse_the_mkl_found_first_and_leave_the_environment_alone
     assert "PYPARDISO_MKL_RT" not in os.environ
     assert np.array_equal(x1, x2)
     assert np.allclose(x1, np.linalg.solve(K.toarray(), b), rtol=1e-12, atol=0)
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+@pytest.mark.parametrize("settings", [{}, {2: 0}, {8: 0}, {2: 0, 8: 0}])
+def test_pardiso_settings_change_round_off_only(monkeypatch, settings):
+    """MKL's defaults, minimum-degree ordering and refinement only after perturbed pivots: each
+    against numpy's dense solve, to 100 x eps x cond(K) relative to |x|."""
+    from hydrojam.fem.linsolve import _Pardiso
+
+    monkeypatch.setattr(_Pardiso, "settings", settings)
+    solver = LinearSolver("pardiso")
+    for K, b in _contact_sequence(seed=2, steps=8):
+        x = solver.solve(K, b)
+        Kd = K.toarray()
+        x_ref = np.linalg.solve(Kd, b)
+        assert np.linalg.norm(x - x_ref) <= 100 * np.finfo(float).eps * np.linalg.cond(Kd) * np.linalg.norm(x_ref)
+    for i, value in settings.items():
+        assert solver._pardiso._ps.iparm[i - 1] == value
