@@ -65,3 +65,110 @@ def test_valid_environment_values_are_used(monkeypatch):
     monkeypatch.delenv("HYDROJAM_REUSE_ANALYSIS")
     s = LinearSolver("scipy")
     assert s.threads == 1 and s.reuse_analysis is True
+
+
+def _contact_sequence(seed=0, n_side=12, steps=30):
+    """Symmetric indefinite matrices of a 2D grid Laplacian (shifted to be indefinite) plus
+    "contact" couplings between random far-apart DOFs that come and go from matrix to matrix,
+    as the contact term's entries do between Newton iterations."""
+    rng = np.random.default_rng(seed)
+    n = n_side * n_side
+    lap1 = sp.diags([-np.ones(n_side - 1), 2 * np.ones(n_side), -np.ones(n_side - 1)], [-1, 0, 1])
+    L = (sp.kron(lap1, sp.identity(n_side)) + sp.kron(sp.identity(n_side), lap1)).tocsr()
+    out = []
+    for _ in range(steps):
+        pairs = rng.integers(0, n, size=(rng.integers(0, 8), 2))
+        pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+        k = rng.uniform(0.5, 2.0, len(pairs))
+        rows = np.concatenate([pairs[:, 0], pairs[:, 1], pairs[:, 0], pairs[:, 1]])
+        cols = np.concatenate([pairs[:, 0], pairs[:, 1], pairs[:, 1], pairs[:, 0]])
+        vals = np.concatenate([k, k, -k, -k])
+        C = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+        K = (L + C - 0.3 * sp.identity(n)).tocsr()
+        out.append((K, rng.standard_normal(n)))
+    return out
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_the_union_pattern_solve_equals_a_fresh_solve():
+    """One solver over matrices whose contact entries come and go (stored on the union of the
+    patterns, explicit zeros where a matrix has no entry, the analysis reused) against numpy's
+    dense solve of each matrix; tolerance 100 x eps x cond(K) relative to |x|, the accuracy a
+    backward-stable solve promises. The analysis must have been both reused and redone."""
+    solver = LinearSolver("pardiso")
+    unions = set()
+    for K, b in _contact_sequence():
+        x = solver.solve(K, b)
+        Kd = K.toarray()
+        x_ref = np.linalg.solve(Kd, b)
+        tol = 100 * np.finfo(float).eps * np.linalg.cond(Kd) * np.linalg.norm(x_ref)
+        assert np.linalg.norm(x - x_ref) <= tol
+        assert solver._union.nnz >= sp.triu(K).nnz
+        unions.add(solver._union.key)
+    assert solver.calls == 30 and 1 < solver.analyses < 30  # reused some analyses, redid others
+    assert len(unions) == solver.analyses
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_the_union_pattern_gives_the_same_solution_as_no_reuse():
+    """With the analysis reused on the union pattern and without (each matrix analysed on its
+    own pattern): the same matrices, so the same solutions up to the solver's round-off on a
+    different pattern (100 x eps x cond(K) relative to |x|)."""
+    reuse = LinearSolver("pardiso")
+    fresh = LinearSolver("pardiso")
+    fresh.reuse_analysis = False
+    for K, b in _contact_sequence(seed=1):
+        x, y = reuse.solve(K, b), fresh.solve(K, b)
+        tol = 100 * np.finfo(float).eps * np.linalg.cond(K.toarray()) * np.linalg.norm(y)
+        assert np.linalg.norm(x - y) <= tol
+    assert fresh.analyses == fresh.calls and reuse.analyses < reuse.calls
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_unsorted_and_duplicate_entries_are_summed(method):
+    """A CSR matrix with unsorted column indices and a duplicate entry means the sum of its
+    entries, as SciPy reads it: compared with the dense solve."""
+    data = np.array([1.0, 4.0, 1.0, 1.0, -3.0, 1.0, 1.0, 4.0])
+    indices = np.array([1, 0, 0, 2, 1, 1, 2, 2])  # row 0 unsorted; row 2 holds (2, 2) twice
+    indptr = np.array([0, 2, 5, 8])
+    K = sp.csr_matrix((data, indices, indptr), shape=(3, 3))
+    b = np.array([1.0, 2.0, 3.0])
+    x = LinearSolver(method).solve(K, b)
+    assert np.allclose(x, np.linalg.solve(K.toarray(), b), rtol=1e-12, atol=0)
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_later_handles_reuse_the_mkl_found_first_and_leave_the_environment_alone(monkeypatch):
+    """A second handle loads the MKL runtime the first one found (no search of the environment)
+    and solves like the first; PYPARDISO_MKL_RT is set only while a handle is constructed."""
+    import os
+
+    from hydrojam.fem.linsolve import _Pardiso
+
+    monkeypatch.delenv("PYPARDISO_MKL_RT", raising=False)
+    K = sp.csr_matrix(np.array([[2.0, 1.0], [1.0, -3.0]]))
+    b = np.array([1.0, 2.0])
+    first, second = LinearSolver("pardiso"), LinearSolver("pardiso")
+    x1, x2 = first.solve(K, b), second.solve(K, b)
+    assert second._pardiso._ps.libmkl._name == _Pardiso._mkl_rt
+    assert "PYPARDISO_MKL_RT" not in os.environ
+    assert np.array_equal(x1, x2)
+    assert np.allclose(x1, np.linalg.solve(K.toarray(), b), rtol=1e-12, atol=0)
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+@pytest.mark.parametrize("settings", [{}, {2: 0}, {8: 0}, {2: 0, 8: 0}])
+def test_pardiso_settings_change_round_off_only(monkeypatch, settings):
+    """MKL's defaults, minimum-degree ordering and refinement only after perturbed pivots: each
+    against numpy's dense solve, to 100 x eps x cond(K) relative to |x|."""
+    from hydrojam.fem.linsolve import _Pardiso
+
+    monkeypatch.setattr(_Pardiso, "settings", settings)
+    solver = LinearSolver("pardiso")
+    for K, b in _contact_sequence(seed=2, steps=8):
+        x = solver.solve(K, b)
+        Kd = K.toarray()
+        x_ref = np.linalg.solve(Kd, b)
+        assert np.linalg.norm(x - x_ref) <= 100 * np.finfo(float).eps * np.linalg.cond(Kd) * np.linalg.norm(x_ref)
+    for i, value in settings.items():
+        assert solver._pardiso._ps.iparm[i - 1] == value

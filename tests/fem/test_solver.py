@@ -364,3 +364,47 @@ def test_newton_reports_how_it_ended_as_a_status():
     crushed = mesh.points * np.array([1.0, -1.0])  # every cell inverted: infinite energy
     bad = minimize([S], crushed, free, GEL.shear_modulus_ref)
     assert bad.status is NewtonStatus.INADMISSIBLE_START and not bad.converged
+
+
+def test_a_retried_direction_reassembles_only_the_projected_terms():
+    """The adaptive fallback re-assembles the Hessian of the terms that ask for projection
+    (project=True) and reuses every other term's Hessian of the iteration, the same matrices as
+    re-assembling them: counted calls, and the direction compared with the direction from a
+    Hessian summed afresh."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.newton import _direction
+    from hydrojam.fem.terms import EnergyTerm
+
+    calls = []
+
+    class Counted(EnergyTerm):
+        def __init__(self, H, name, fallback):
+            self.H, self.name, self.fallback_projection = H, name, fallback
+
+        def energy(self, x):
+            return 0.0
+
+        def gradient(self, x):
+            return np.zeros(x.size)
+
+        def hessian(self, x, project=False):
+            calls.append((self.name, project))
+            return sp.csr_matrix(np.abs(self.H) if project else self.H)
+
+    n = 4
+    solid_H = np.diag([2.0, 2.0, 2.0, 2.0])
+    contact_H = np.array([[0, 0, 0, 0], [0, -5.0, 5.0, 0], [0, 5.0, -5.0, 0], [0, 0, 0, 0]])
+    terms = [Counted(solid_H, "solid", False), Counted(contact_H, "contact", True)]
+    x = np.zeros((2, 2))
+    fidx = np.arange(n)
+    hessians = [t.hessian(x) for t in terms]
+    Hff = sp.csr_matrix(sum(hessians))[fidx][:, fidx]
+    g = np.array([0.0, 1.0, -0.5, 0.0])  # the exact Hessian's step climbs along (0, 1, -1, 0)
+    calls.clear()
+    opts = NewtonOptions()
+    dx, slope, _ = _direction(terms, x, hessians, Hff, np.abs(Hff.diagonal()), g, np.linalg.norm(g), 0.0,
+                              fidx, LinearSolver("scipy"), opts)
+    assert calls == [("contact", True)]
+    assert slope < 0
+    K = sp.csr_matrix(solid_H + np.abs(contact_H)) + sp.diags(opts.regularisation * np.abs(Hff.diagonal()).mean() * np.ones(n))
+    assert np.allclose(dx, sp.linalg.spsolve(K.tocsc(), -g), rtol=1e-12, atol=0)

@@ -34,29 +34,81 @@ def _pardiso_available() -> bool:
 
 
 class _Pardiso:
-    """MKL PARDISO through pypardiso (pinned 0.4.7): every call to pypardiso's private functions
-    and attributes (``_check_A``, ``_check_b``, ``_call_pardiso``, ``libmkl``) lives in this class,
-    so an upgrade is reviewed here. Real symmetric indefinite (mtype -2) on the upper triangle."""
+    """MKL PARDISO through pypardiso (pinned 0.4.7): every use of pypardiso's private functions
+    and attributes (``_mkl_pardiso``, ``_call_pardiso``, ``pt``, ``iparm``, ``libmkl``) lives in
+    this class, so an upgrade is reviewed here. Real symmetric indefinite (mtype -2) on the upper
+    triangle, called with the 1-based index arrays of the pattern prepared once per pattern."""
+
+    settings: dict[int, int] = {2: 0}
+    """PARDISO's iparm (1-based index: value) over MKL's defaults for mtype -2 (pardisoinit):
+    iparm(2) = 0, minimum-degree ordering instead of MKL's METIS (iparm(2) = 3): a 40% faster
+    analysis and a faster factorisation on these 2D matrices. It changes round-off only;
+    docs/solver.md gives the measurements ({} restores MKL's defaults)."""
+
+    _mkl_rt: str | None = None
+    """Path of the MKL runtime found by the first handle: later handles skip pypardiso's search
+    of the whole environment for it (a recursive glob, about 0.1-0.3 s a handle)."""
 
     def __init__(self, threads: int):
+        import os
+
         import pypardiso
         from pypardiso.pardiso_wrapper import PyPardisoError
 
         self.error = PyPardisoError
-        self._ps = pypardiso.PyPardisoSolver(mtype=-2)
+        path = _Pardiso._mkl_rt or getattr(getattr(pypardiso.ps, "libmkl", None), "_name", None)
+        if path and "PYPARDISO_MKL_RT" not in os.environ:
+            os.environ["PYPARDISO_MKL_RT"] = path  # read only by the constructor below
+            try:
+                self._ps = pypardiso.PyPardisoSolver(mtype=-2)
+            finally:
+                os.environ.pop("PYPARDISO_MKL_RT", None)
+        else:
+            self._ps = pypardiso.PyPardisoSolver(mtype=-2)
+        _Pardiso._mkl_rt = self._ps.libmkl._name
         self._ps.set_statistical_info_off()
+        init = self._ps.libmkl.pardisoinit
+        init.restype = None
+        init(self._ps.pt.ctypes.data_as(ctypes.POINTER(self._ps._pt_type[0])),
+             ctypes.byref(ctypes.c_int32(self._ps.mtype)),
+             self._ps.iparm.ctypes.data_as(ctypes.POINTER(ctypes.c_int32)))
+        self._ps.set_iparm(12, 0)  # CSR input, not transposed (what pypardiso's _check_A sets)
+        for i, value in self.settings.items():
+            self._ps.iparm[i - 1] = value
         setter = getattr(self._ps.libmkl, "MKL_Set_Num_Threads", None)
         if setter is not None:
             setter(ctypes.c_int(threads))
 
-    def solve(self, upper: sp.csr_matrix, b: np.ndarray, reuse_analysis: bool) -> np.ndarray:
-        """Solution for the upper triangle ``upper`` (sorted CSR): phase 23 (numerical
-        factorisation + solve) reusing the last analysis, or 13 (analysis too)."""
+    def solve(self, data: np.ndarray, ia: np.ndarray, ja: np.ndarray, b: np.ndarray,
+              reuse_analysis: bool) -> np.ndarray:
+        """Solution for the upper triangle given as CSR ``data`` with 1-based int32 ``ia``
+        (row pointers) and ``ja`` (sorted column indices): phase 23 (numerical factorisation +
+        solve) reusing the last analysis, or 13 (analysis too)."""
         ps = self._ps
-        ps._check_A(upper)
-        b = ps._check_b(upper, b)
-        ps.set_phase(23 if reuse_analysis else 13)
-        return ps._call_pardiso(upper, b)
+        n = len(ia) - 1
+        if b.shape != (n,):
+            raise ValueError(f"right-hand side of shape {b.shape} for a matrix of {n} rows")
+        b = np.ascontiguousarray(b, dtype=np.float64)
+        x = np.zeros_like(b)
+        err = ctypes.c_int32(0)
+        i32, f64 = ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_double)
+        ps._mkl_pardiso(
+            ps.pt.ctypes.data_as(ctypes.POINTER(ps._pt_type[0])),
+            ctypes.byref(ctypes.c_int32(1)), ctypes.byref(ctypes.c_int32(1)),  # maxfct, mnum
+            ctypes.byref(ctypes.c_int32(ps.mtype)),
+            ctypes.byref(ctypes.c_int32(23 if reuse_analysis else 13)),
+            ctypes.byref(ctypes.c_int32(n)),
+            data.ctypes.data_as(f64), ia.ctypes.data_as(i32), ja.ctypes.data_as(i32),
+            ps.perm.ctypes.data_as(i32),
+            ctypes.byref(ctypes.c_int32(1)),  # nrhs
+            ps.iparm.ctypes.data_as(i32),
+            ctypes.byref(ctypes.c_int32(ps.msglvl)),
+            b.ctypes.data_as(f64), x.ctypes.data_as(f64),
+            ctypes.byref(err),
+        )
+        if err.value != 0:
+            raise self.error(err.value)
+        return x
 
     def release(self) -> None:
         """Free all of MKL's memory for this handle (before analysing a new pattern)."""
@@ -67,11 +119,56 @@ class _Pardiso:
         return int(self._ps.get_iparm(23))
 
 
+class _UpperPattern:
+    """One sparsity pattern of the upper triangle that PARDISO sees (sorted CSR ``indptr``,
+    ``indices``): 1-based int32 ``ia``/``ja`` for PARDISO, ``key`` identifying it (the analysis
+    is reused while it stays), whether some row is empty (PARDISO would crash) and ``positions``,
+    the pattern with every entry's position + 1 as its value, which locates another pattern's
+    entries by one sparse elementwise product."""
+
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray):
+        self.n, self.nnz = len(indptr) - 1, len(indices)
+        self.positions = sp.csr_matrix((np.arange(1.0, self.nnz + 1.0), indices, indptr), shape=(self.n, self.n))
+        self.ia = (indptr + 1).astype(np.int32)
+        self.ja = (indices + 1).astype(np.int32)
+        self.empty_row = not np.diff(indptr).all()
+        self.key = (self.n, hash(self.ia.tobytes()), hash(self.ja.tobytes()))
+
+    def locate(self, pattern: sp.csr_matrix) -> np.ndarray | None:
+        """Positions in this pattern of the entries of ``pattern`` (sorted CSR, every value
+        non-zero) in their CSR order; None if some entry is not in this pattern."""
+        hit = self.positions.multiply(pattern)
+        if hit.nnz != pattern.nnz:
+            return None
+        return hit.tocsr().data.astype(np.int64) - 1
+
+
+class _Gather:
+    """How a matrix of one sparsity pattern (sorted CSR ``indptr``, ``indices``) lands on an
+    :class:`_UpperPattern`: its upper triangle ``upper`` (a pattern, every value 1) holds its
+    values ``data[src]``; they are stored at ``dst`` of ``pattern``."""
+
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray):
+        self.indptr, self.indices = indptr.copy(), indices.copy()
+        n = len(indptr) - 1
+        rows = np.repeat(np.arange(n), np.diff(indptr))
+        self.src = np.flatnonzero(indices >= rows)
+        upper_ptr = np.concatenate([[0], np.cumsum(np.bincount(rows[self.src], minlength=n))])
+        self.upper = sp.csr_matrix((np.ones(len(self.src)), indices[self.src], upper_ptr), shape=(n, n))
+        self.pattern: _UpperPattern | None = None
+        self.dst: np.ndarray | None = None
+
+    def matches(self, K: sp.csr_matrix) -> bool:
+        """Whether K has this sparsity pattern."""
+        return np.array_equal(self.indptr, K.indptr) and np.array_equal(self.indices, K.indices)
+
+
 class LinearSolver:
     """Solve K u = b for symmetric sparse K.
 
     ``method``: "pardiso", "scipy" or "auto" (PARDISO where it loads, else SciPy's SuperLU).
-    ``seconds`` accumulates the wall time spent in solves [s] (for benchmarks). Reads
+    ``seconds`` accumulates the wall time spent in solves [s], ``calls`` the solves and
+    ``analyses`` PARDISO's symbolic analyses among them (for benchmarks). Reads
     ``HYDROJAM_SOLVER_THREADS`` (MKL threads, a positive integer; default 1) and
     ``HYDROJAM_REUSE_ANALYSIS`` (0 or 1; default 1) when constructed: ValueError otherwise.
     """
@@ -84,9 +181,12 @@ class LinearSolver:
         self.method = method
         self.seconds = 0.0
         self.calls = 0
+        self.analyses = 0
         self._pardiso: _Pardiso | None = None
         self._analysed = None
-        self._union = None
+        self._union: _UpperPattern | None = None
+        self._gathers: list[_Gather] = []
+        self._kept_patterns = 4
         self.negative_eigenvalues: int | None = None
         """Negative eigenvalues of the last matrix solved (PARDISO's inertia; a diagnostic for
         stability studies); None where the backend does not report it."""
@@ -96,23 +196,22 @@ class LinearSolver:
     def _solve_pardiso(self, K: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         if self._pardiso is None:
             self._pardiso = _Pardiso(self.threads)
-        upper = sp.triu(K, format="csr")
-        upper.sort_indices()
-        upper = self._on_union_pattern(upper)
-        if not np.diff(upper.indptr).all():  # PARDISO would crash on it (pypardiso refuses it too)
+        pattern, data = self._on_union_pattern(K)
+        if pattern.empty_row:  # PARDISO would crash on it (pypardiso refuses it too)
             raise LinearSolveError("pardiso: matrix is singular (an empty row)")
         # The symbolic analysis (ordering) depends only on the sparsity pattern: reuse it while the
         # pattern stays (phase 23 = numerical factorisation + solve), redo it when contact changes
         # it (phase 13). Measured: the analysis is ~55% of a 2D solve.
-        key = (upper.shape[0], hash(upper.indptr.tobytes()), hash(upper.indices.tobytes()))
-        if self._analysed is not None and key != self._analysed:
+        if self._analysed is not None and pattern.key != self._analysed:
             # MKL wrote out of bounds when one handle was re-analysed for a new pattern: start clean
             self._pardiso.release()
+        reuse = pattern.key == self._analysed and self.reuse_analysis
+        self.analyses += not reuse
         try:
-            x = self._pardiso.solve(upper, b, key == self._analysed and self.reuse_analysis)
+            x = self._pardiso.solve(data, pattern.ia, pattern.ja, b, reuse)
         except self._pardiso.error as exc:  # a failed factorisation (zero pivot, ...)
             raise LinearSolveError(f"pardiso: {exc}") from exc
-        self._analysed = key
+        self._analysed = pattern.key
         self.negative_eigenvalues = self._pardiso.negative_eigenvalues()
         return x
 
@@ -125,33 +224,43 @@ class LinearSolver:
             except (spla.MatrixRankWarning, RuntimeError) as exc:  # SuperLU: singular factor
                 raise LinearSolveError(f"scipy: {exc}") from exc
 
-    def _on_union_pattern(self, upper: sp.csr_matrix) -> sp.csr_matrix:
-        """``upper`` stored on the union of the sparsity patterns seen lately (explicit zeros
-        where it has no entry), so that contacts coming and going do not change the pattern and
-        PARDISO's analysis is reused. The union restarts from ``upper``'s own pattern when that
-        fills less than 70% of it (contacts long gone would only slow the factorisation)."""
-        if not self.reuse_analysis:
-            return upper
-        n = upper.shape[0]
-        rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(upper.indptr))
-        keys = rows * n + upper.indices
+    def _gather(self, K: sp.csr_matrix) -> _Gather:
+        """The upper-triangle gather of K's sparsity pattern: the last few patterns are kept, as
+        contacts come and go between a few sets within a Newton iteration and its retries."""
+        for i, g in enumerate(self._gathers):
+            if g.matches(K):
+                if i:
+                    self._gathers.insert(0, self._gathers.pop(i))
+                return g
+        g = _Gather(K.indptr, K.indices)
+        self._gathers = [g] + self._gathers[: self._kept_patterns - 1]
+        return g
+
+    def _on_union_pattern(self, K: sp.csr_matrix) -> tuple[_UpperPattern, np.ndarray]:
+        """K's upper triangle stored on the union of the sparsity patterns seen lately (explicit
+        zeros where it has no entry), so that contacts coming and going do not change the pattern
+        and PARDISO's analysis is reused: the pattern and the values on it. The union restarts
+        from K's own pattern when that fills less than 70% of it (contacts long gone would only
+        slow the factorisation). Without analysis reuse, K's own pattern."""
+        if not K.has_canonical_format:  # duplicates or unsorted: sum them as triu's COO route does
+            K = sp.triu(K, format="csr")
+            K.sort_indices()
+        g = self._gather(K)
         u = self._union
-        if u is not None and u[0] == n and len(keys) >= 0.7 * len(u[1]):
-            pos = np.searchsorted(u[1], keys)
-            pos = np.minimum(pos, len(u[1]) - 1)
-            if np.array_equal(u[1][pos], keys):
-                data = np.zeros(len(u[1]))
-                data[pos] = upper.data
-                return sp.csr_matrix((data, u[3], u[2]), shape=upper.shape)
-            keys_u = np.union1d(u[1], keys)
-        else:
-            keys_u = keys
-        r, c = np.divmod(keys_u, n)
-        indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=n))]).astype(upper.indptr.dtype)
-        self._union = (n, keys_u, indptr, c.astype(upper.indices.dtype))
-        data = np.zeros(len(keys_u))
-        data[np.searchsorted(keys_u, keys)] = upper.data
-        return sp.csr_matrix((data, self._union[3], indptr), shape=upper.shape)
+        if g.pattern is None or g.pattern is not u:
+            nnz = g.upper.nnz
+            if self.reuse_analysis and u is not None and u.n == K.shape[0] and nnz >= 0.7 * u.nnz:
+                pos = u.locate(g.upper)
+                if pos is None:  # merge: the pattern of the sum of the two (positive values)
+                    merged = (u.positions + g.upper).tocsr()
+                    u = _UpperPattern(merged.indptr, merged.indices)
+                    pos = u.locate(g.upper)
+            else:
+                u, pos = _UpperPattern(g.upper.indptr, g.upper.indices), np.arange(nnz)
+            self._union, g.pattern, g.dst = u, u, pos
+        data = np.zeros(u.nnz)
+        data[g.dst] = K.data[g.src]
+        return u, data
 
     def solve(self, K: sp.spmatrix, b: np.ndarray) -> np.ndarray:
         """Solution u of K u = b; raises LinearSolveError if K is singular (the factorisation
