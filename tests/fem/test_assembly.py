@@ -41,7 +41,11 @@ def _gap(a, b):
     return abs(a - b).max() / abs(a).max()
 
 
-PAIRS = {"neohookean+yeoh": (NeoHookean(), YEOH), "gel+neohookean": (GEL_COLD, NeoHookean()), "gel+gel": (GEL_COLD, GEL_COLD.at(-0.5, 290.0))}
+PAIRS = {
+    "neohookean+yeoh": (NeoHookean(), YEOH),
+    "gel+neohookean": (GEL_COLD, NeoHookean()),
+    "gel+gel": (GEL_COLD, GEL_COLD.at(-0.5, 290.0)),
+}
 
 
 @pytest.mark.parametrize("dim", [2, 3])

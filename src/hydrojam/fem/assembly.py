@@ -48,7 +48,6 @@ class _Geometry:
     dNdX: np.ndarray  # (ne, nq, nen, d)
     dV: np.ndarray  # (ne, nq)
     edofs: np.ndarray  # (ne, nen*d)
-    nq: int
 
 
 def _block_geometry(X: np.ndarray, block: Block) -> _Geometry:
@@ -56,7 +55,7 @@ def _block_geometry(X: np.ndarray, block: Block) -> _Geometry:
     cells = np.asarray(block.cells, dtype=np.int64)
     dNdX, dV = physical_gradients(block.element, X[cells])
     edofs = (cells[:, :, None] * d + np.arange(d)).reshape(len(cells), -1)
-    return _Geometry(cells, np.ascontiguousarray(dNdX), np.ascontiguousarray(dV), edofs, dNdX.shape[1])
+    return _Geometry(cells, np.ascontiguousarray(dNdX), np.ascontiguousarray(dV), edofs)
 
 
 @dataclass(frozen=True)
@@ -161,9 +160,8 @@ class Solid(EnergyTerm):
 
     def _F(self, x: np.ndarray, g: _Geometry) -> np.ndarray:
         if self.compiled:
-            from hydrojam.fem import _kernels
-
-            return _kernels.deformation_gradients(np.ascontiguousarray(x, dtype=float).reshape(-1, self.dim), g.cells, g.dNdX, (0,) * self.dim)
+            x = np.ascontiguousarray(x, dtype=float).reshape(-1, self.dim)
+            return _kernels().deformation_gradients(x, g.cells, g.dNdX, (0,) * self.dim)
         return np.einsum("eai,eqaj->eqij", x[g.cells], g.dNdX, optimize=True)
 
     def _response(self, material: Material, F: np.ndarray, order: int):
@@ -206,9 +204,7 @@ class Solid(EnergyTerm):
         for b, g in zip(self.blocks, self._geoms):
             P = self._response(b.material, self._F(x, g), 1)
             if self.compiled:
-                from hydrojam.fem import _kernels
-
-                _kernels.scatter_forces(np.ascontiguousarray(P), g.dNdX, g.dV, g.edofs, out, flux, (0,) * self.dim)
+                _kernels().scatter_forces(np.ascontiguousarray(P), g.dNdX, g.dV, g.edofs, out, flux, (0,) * self.dim)
                 continue
             fe = np.einsum("eq,eqij,eqaj->eai", g.dV, P, g.dNdX, optimize=True)  # element forces [N]
             out += np.bincount(g.edofs.ravel(), weights=fe.ravel(), minlength=self.ndof)
@@ -231,10 +227,9 @@ class Solid(EnergyTerm):
             A = self._response(b.material, self._F(x, g), 2)
             ne, nq, nen, d = g.dNdX.shape
             if self.compiled:
-                from hydrojam.fem import _kernels
-
                 Ke = np.empty((ne, nen * d, nen * d))
-                _kernels.element_matrices(np.ascontiguousarray(A), g.dNdX, g.dV, project, _NO_SLOTS, _NO_DATA, Ke, (0,) * d)
+                A = np.ascontiguousarray(A)
+                _kernels().element_matrices(A, g.dNdX, g.dV, project, _NO_SLOTS, _NO_DATA, Ke, (0,) * d)
                 out.append(Ke)
                 continue
             AG = np.einsum("eqijkl,eqbl->eqijkb", A, g.dNdX, optimize=True)
@@ -245,14 +240,19 @@ class Solid(EnergyTerm):
     def hessian(self, x: np.ndarray, project: bool = False) -> sp.csr_matrix:
         if not self.compiled:
             return self._pat.matrix(self.element_hessians(x, project))
-        from hydrojam.fem import _kernels
-
         data = np.zeros(len(self._pat.indices))
         for b, g, slots in zip(self.blocks, self._geoms, self._pat.slots):
-            A = self._response(b.material, self._F(x, g), 2)
+            A = np.ascontiguousarray(self._response(b.material, self._F(x, g), 2))
             m = g.edofs.shape[1]
-            _kernels.element_matrices(np.ascontiguousarray(A), g.dNdX, g.dV, project, slots.reshape(-1, m, m), data, _NO_K, (0,) * self.dim)
+            _kernels().element_matrices(A, g.dNdX, g.dV, project, slots.reshape(-1, m, m), data, _NO_K, (0,) * self.dim)
         return sp.csr_matrix((data, self._pat.indices, self._pat.indptr), shape=(self.ndof, self.ndof))
+
+
+def _kernels():
+    """fem/_kernels.py, imported on first use: ``import hydrojam`` does not load numba."""
+    from hydrojam.fem import _kernels as k
+
+    return k
 
 
 # Empty stand-ins for the outputs a compiled element loop is not asked for.

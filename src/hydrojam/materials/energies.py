@@ -170,7 +170,8 @@ class _InvariantMaterial:
         shape, d = F.shape[:-2], F.shape[-1]
         if F.shape[-2] != d or d not in (2, 3):
             raise ValueError(f"deformation gradients must be 2x2 or 3x3, got {F.shape[-2:]}")
-        W, P, A = _compiled_batch()(np.ascontiguousarray(F.reshape(-1, d, d)), self._compiled_constants(), order, (0,) * d)
+        F = np.ascontiguousarray(F.reshape(-1, d, d))
+        W, P, A = _compiled_batch()(F, self._compiled_constants(), order, (0,) * d)
         return MaterialResponse(
             W.reshape(shape),
             P.reshape(shape + (d, d)) if order >= 1 else None,
@@ -230,7 +231,8 @@ def _invariant_batch(F, k, order, dims):  # pragma: no cover - compiled by numba
             nn, chi0, chi1, mu = k[5], k[6], k[7], k[8]
             iJ = 1.0 / J
             l1 = np.log1p(-iJ)
-            psi = 0.5 * nn * (I1 - 3.0 - 2.0 * np.log(J)) + (J - 1.0) * l1 + (chi0 + chi1 * iJ) * (1.0 - iJ) - mu * (J - 1.0)
+            psi = (0.5 * nn * (I1 - 3.0 - 2.0 * np.log(J)) + (J - 1.0) * l1 + (chi0 + chi1 * iJ) * (1.0 - iJ)
+                   - mu * (J - 1.0))
             g = l1 + iJ + (chi0 - chi1) * iJ**2 + 2.0 * chi1 * iJ**3 - mu
             p1 = 0.5 * nn
             pJ = -nn * iJ + g
