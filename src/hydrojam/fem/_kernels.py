@@ -68,50 +68,75 @@ def _project_psd(K):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def element_matrices(A, dNdX, dV, project, slots, data, out, dims):  # pragma: no cover - compiled
-    """Element stiffness K_(ai)(bk) = sum_q dV dN_a/dX_j A_ijkl dN_b/dX_l [N/mm] of tangents
-    A (ne, nq, d, d, d, d) [MPa], PSD-projected per element if ``project``. Each is added into
-    the CSR ``data`` at its positions ``slots`` (ne, nen*d, nen*d) when ``slots`` has rows, and
-    stored in ``out`` (ne, nen*d, nen*d) when ``out`` has rows. ``dims`` is any tuple of d
-    integers: its length is known when compiling, so the loops over d are unrolled."""
-    ne, nq, nen, _ = dNdX.shape
+def _element_matrix(A, dNdX, dV, e, K, AG, dims):  # pragma: no cover - compiled
+    """K (nen*d, nen*d) of element e: K_(ai)(bk) = sum_q dV dN_a/dX_j A_ijkl dN_b/dX_l [N/mm];
+    AG (nen, d, d, d) is scratch."""
+    _, nq, nen, _ = dNdX.shape
     d = len(dims)
-    m = nen * d
-    scatter, store = slots.shape[0] > 0, out.shape[0] > 0
-    K = np.empty((m, m))
-    AG = np.empty((nen, d, d, d))
-    for e in range(ne):
-        K[:, :] = 0.0
-        for q in range(nq):
-            w = dV[e, q]
-            dN = dNdX[e, q]
-            Aq = A[e, q]
-            for b in range(nen):
-                for i in range(d):
-                    for j in range(d):
-                        for k in range(d):
-                            s = 0.0
-                            for ll in range(d):
-                                s += Aq[i, j, k, ll] * dN[b, ll]
-                            AG[b, i, j, k] = w * s
-            # A has the major symmetry A_ijkl = A_klij, so K is symmetric: the blocks b >= a only
-            for a in range(nen):
-                for b in range(a, nen):
-                    for i in range(d):
-                        for k in range(d):
-                            s = 0.0
-                            for j in range(d):
-                                s += dN[a, j] * AG[b, i, j, k]
-                            K[a * d + i, b * d + k] += s
+    K[:, :] = 0.0
+    for q in range(nq):
+        w = dV[e, q]
+        dN = dNdX[e, q]
+        Aq = A[e, q]
+        for b in range(nen):
+            for i in range(d):
+                for j in range(d):
+                    for k in range(d):
+                        s = 0.0
+                        for ll in range(d):
+                            s += Aq[i, j, k, ll] * dN[b, ll]
+                        AG[b, i, j, k] = w * s
+        # A has the major symmetry A_ijkl = A_klij, so K is symmetric: the blocks b >= a only
         for a in range(nen):
-            for b in range(a + 1, nen):
+            for b in range(a, nen):
                 for i in range(d):
                     for k in range(d):
-                        K[b * d + k, a * d + i] = K[a * d + i, b * d + k]
-        Ke = _project_psd(K) if project else K
-        if scatter:
-            for r in range(m):
-                for c in range(m):
-                    data[slots[e, r, c]] += Ke[r, c]
-        if store:
-            out[e] = Ke
+                        s = 0.0
+                        for j in range(d):
+                            s += dN[a, j] * AG[b, i, j, k]
+                        K[a * d + i, b * d + k] += s
+    for a in range(nen):
+        for b in range(a + 1, nen):
+            for i in range(d):
+                for k in range(d):
+                    K[b * d + k, a * d + i] = K[a * d + i, b * d + k]
+
+
+@numba.njit(cache=True)
+def _deposit(Ke, e, slots, data, out):  # pragma: no cover - compiled
+    if slots.shape[0] > 0:
+        m = Ke.shape[0]
+        for r in range(m):
+            for c in range(m):
+                data[slots[e, r, c]] += Ke[r, c]
+    if out.shape[0] > 0:
+        out[e] = Ke
+
+
+@numba.njit(cache=True)
+def element_matrices(A, dNdX, dV, slots, data, out, dims):  # pragma: no cover - compiled
+    """Element stiffness matrices (see _element_matrix) of tangents A (ne, nq, d, d, d, d) [MPa].
+    Each is added into the CSR ``data`` at its positions ``slots`` (ne, nen*d, nen*d) when
+    ``slots`` has rows, and stored in ``out`` (ne, nen*d, nen*d) when ``out`` has rows. ``dims``
+    is any tuple of d integers: its length is known when compiling, so the loops over d are
+    unrolled."""
+    ne, _, nen, _ = dNdX.shape
+    d = len(dims)
+    K = np.empty((nen * d, nen * d))
+    AG = np.empty((nen, d, d, d))
+    for e in range(ne):
+        _element_matrix(A, dNdX, dV, e, K, AG, dims)
+        _deposit(K, e, slots, data, out)
+
+
+@numba.njit(cache=True)
+def element_matrices_psd(A, dNdX, dV, slots, data, out, dims):  # pragma: no cover - compiled
+    """:func:`element_matrices`, each PSD-projected (apart: LAPACK's eigh takes most of the
+    compile time, which the unprojected Hessian then does not pay)."""
+    ne, _, nen, _ = dNdX.shape
+    d = len(dims)
+    K = np.empty((nen * d, nen * d))
+    AG = np.empty((nen, d, d, d))
+    for e in range(ne):
+        _element_matrix(A, dNdX, dV, e, K, AG, dims)
+        _deposit(_project_psd(K), e, slots, data, out)

@@ -228,8 +228,7 @@ class Solid(EnergyTerm):
             ne, nq, nen, d = g.dNdX.shape
             if self.compiled:
                 Ke = np.empty((ne, nen * d, nen * d))
-                A = np.ascontiguousarray(A)
-                _kernels().element_matrices(A, g.dNdX, g.dV, project, _NO_SLOTS, _NO_DATA, Ke, (0,) * d)
+                _element_matrices(project)(np.ascontiguousarray(A), g.dNdX, g.dV, _NO_SLOTS, _NO_DATA, Ke, (0,) * d)
                 out.append(Ke)
                 continue
             AG = np.einsum("eqijkl,eqbl->eqijkb", A, g.dNdX, optimize=True)
@@ -244,7 +243,7 @@ class Solid(EnergyTerm):
         for b, g, slots in zip(self.blocks, self._geoms, self._pat.slots):
             A = np.ascontiguousarray(self._response(b.material, self._F(x, g), 2))
             m = g.edofs.shape[1]
-            _kernels().element_matrices(A, g.dNdX, g.dV, project, slots.reshape(-1, m, m), data, _NO_K, (0,) * self.dim)
+            _element_matrices(project)(A, g.dNdX, g.dV, slots.reshape(-1, m, m), data, _NO_K, (0,) * self.dim)
         return sp.csr_matrix((data, self._pat.indices, self._pat.indptr), shape=(self.ndof, self.ndof))
 
 
@@ -253,6 +252,10 @@ def _kernels():
     from hydrojam.fem import _kernels as k
 
     return k
+
+
+def _element_matrices(project: bool):
+    return _kernels().element_matrices_psd if project else _kernels().element_matrices
 
 
 # Empty stand-ins for the outputs a compiled element loop is not asked for.

@@ -49,7 +49,8 @@ class MaterialResponse:
 
 @runtime_checkable
 class Material(Protocol):
-    """What the finite-element layer needs from a material."""
+    """What the finite-element layer needs from a material. Optional, outside the protocol:
+    ``evaluate_compiled(F, order)`` (the compiled path, see the module docstring)."""
 
     @property
     def shear_modulus_ref(self) -> float:
