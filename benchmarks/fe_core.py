@@ -1,6 +1,6 @@
 """Cost of the finite-element core and how it grows with the number of DOFs.
 
-Run:  .venv/bin/python benchmarks/fe_core.py [--quick] [--max-dofs N]
+Run:  .venv/bin/python benchmarks/fe_core.py [--quick] [--max-dofs N] [--kernels]
 
 What is measured
 ----------------
