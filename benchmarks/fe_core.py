@@ -1,6 +1,6 @@
 """Cost of the finite-element core and how it grows with the number of DOFs.
 
-Run:  .venv/bin/python benchmarks/fe_core.py [--quick] [--max-dofs N]
+Run:  .venv/bin/python benchmarks/fe_core.py [--quick] [--max-dofs N] [--kernels]
 
 What is measured
 ----------------
@@ -39,6 +39,12 @@ iteration, and the share of the wall time spent in assembly (gradient, Hessian, 
 linear solve and line search as recorded in ``PathResult.timings``; "other" is the remainder
 (predictor, material construction, bookkeeping). The final thickness stretch is checked against
 the material-point (laterally constrained) solution.
+
+Table 0 ("kernels"): the compiled path (numba element loops, the materials' ``evaluate_compiled``;
+the default) against the numpy path (``Solid(..., kernels="numpy")``) at two sizes: the default
+2D actuator's size (tri6, about 6.7e3 DOFs) and a tet10 box of about 2.5e4 DOFs. Best of
+KERNEL_REPEATS calls after a warm-up (the first call's compile time is printed apart), in ms, and
+the ratio numpy / compiled. ``--kernels`` runs this table only.
 
 Reading the numbers: the header prints the CPU count, the thread settings and the load average
 (again at the end). Multi-threaded kernels (OpenBLAS behind ``np.linalg.eigh`` in the PSD
@@ -89,6 +95,10 @@ REPEATS = 3  # timed calls after one warm-up; the median is reported
 QUICK_REPEATS = 1
 SCIPY_MAX_DOFS = 3e4  # SuperLU (the slow fallback) is skipped above this many DOFs
 SOLVE_MAX_DOFS = 3e4  # the realistic solve runs on the 2D meshes aiming up to this
+# (label, dim, gmsh element size [mm]) of the kernel comparison: the default actuator's DOF count
+# in 2D (~6.7e3) and ~2.5e4 DOFs in 3D
+KERNEL_CASES = (("2D tri6", 2, 0.77), ("3D tet10", 3, 1.29))
+KERNEL_REPEATS = 5
 
 
 # --------------------------------------------------------------------------------------------
@@ -116,8 +126,8 @@ def cases(dim: int, max_dofs: float) -> list[Case]:
     return [Case(dim, target, size) for target, size in SERIES[dim] if target <= max_dofs]
 
 
-def make_solid(mesh: Mesh) -> Solid:
-    return Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), GEL, "gel")])
+def make_solid(mesh: Mesh, kernels: str | None = None) -> Solid:
+    return Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), GEL, "gel")], kernels=kernels)
 
 
 def bonded_layer_bcs(mesh: Mesh) -> list[Dirichlet]:
@@ -247,6 +257,50 @@ def run_core(dim: int, max_dofs: float, repeats: int) -> None:
 
 
 # --------------------------------------------------------------------------------------------
+# Compiled vs numpy kernels
+
+
+KERNEL_ROWS = [
+    ("energy", lambda S, x: S.energy(x)),
+    ("gradient", lambda S, x: S.gradient(x)),
+    ("hessian", lambda S, x: S.hessian(x)),
+    ("hessian psd (projected)", lambda S, x: S.hessian(x, project=True)),
+]
+
+
+def best_time(fn, repeats: int) -> tuple[float, float]:
+    """(first call [s], best of ``repeats`` further calls [s])."""
+    t0 = time.perf_counter()
+    fn()
+    first = time.perf_counter() - t0
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return first, min(times)
+
+
+def run_kernels(repeats: int) -> None:
+    gel = GEL.at(MU_TARGET, T_TARGET)
+    for label, dim, size in KERNEL_CASES:
+        mesh = Case(dim, 0.0, size).mesh()
+        x = perturbed_state(mesh)
+        solids = {k: make_solid(mesh, k).with_materials({"gel": gel}) for k in ("numpy", "compiled")}
+        rows, diffs = [], []
+        for name, fn in KERNEL_ROWS:
+            (_, tn), (first, tc) = (best_time(lambda: fn(solids[k], x), repeats) for k in ("numpy", "compiled"))
+            a, b = fn(solids["numpy"], x), fn(solids["compiled"], x)
+            a, b = (v if sp.issparse(v) else np.atleast_1d(v) for v in (a, b))
+            diffs.append(f"{name} {abs(a - b).max() / abs(a).max():.1e}")
+            rows.append([f"{name} [ms]", fmt(tn, 1e3), fmt(tc, 1e3), f"{tn / tc:.1f}x", fmt(first, 1e3)])
+        section(f"Kernels, {label}, {mesh.points.size} DOFs, {mesh.n_cells} cells: best of {repeats}")
+        print(table(["", "numpy", "compiled", "numpy/compiled", "compiled 1st call"], rows))
+        print("max |numpy - compiled| / max |numpy|: " + ", ".join(diffs))
+        print_load("load")
+
+
+# --------------------------------------------------------------------------------------------
 # A realistic solve: free swelling of the bonded layer
 
 
@@ -320,6 +374,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--quick", action="store_true", help=f"smoke run: meshes up to ~{QUICK_MAX_DOFS:.0e} DOFs")
     p.add_argument("--max-dofs", type=float, default=None,
                    help=f"skip meshes aiming above this many DOFs (default {DEFAULT_MAX_DOFS:.1e})")
+    p.add_argument("--kernels", action="store_true", help="only the compiled vs numpy kernel table")
     args = p.parse_args(argv)
     if args.max_dofs is None:
         args.max_dofs = QUICK_MAX_DOFS if args.quick else DEFAULT_MAX_DOFS
@@ -330,8 +385,12 @@ def main(argv=None) -> None:
     args = parse_args(argv)
     t0 = time.perf_counter()
     print("hydrojam FE core benchmark" + (" (--quick)" if args.quick else ""))
-    print_environment(["hydrojam", "numpy", "scipy", "pypardiso", "mkl", "gmsh"])
+    print_environment(["hydrojam", "numpy", "numba", "scipy", "pypardiso", "mkl", "gmsh"])
     print(f"cap     : meshes aiming at <= {args.max_dofs:.3g} DOFs; material {GEL.at(MU_TARGET, T_TARGET)!r}")
+    run_kernels(KERNEL_REPEATS)
+    if args.kernels:
+        print_load("end load")
+        return
     repeats = QUICK_REPEATS if args.quick else REPEATS
     run_core(2, args.max_dofs, repeats)
     run_core(3, args.max_dofs, repeats)

@@ -1,10 +1,19 @@
-"""Finite-strain solid bodies as energy terms: vectorised element kernels and sparse assembly.
+"""Finite-strain solid bodies as energy terms: element kernels and sparse assembly.
 
 A :class:`Solid` holds the reference geometry of one or more element blocks over one global node
 set (blocks that share nodes are bonded), each block with its own material. The sparsity pattern,
-the scatter indices and the shape-function gradients are built once; every evaluation is a few
-batched numpy kernels and one ``bincount`` per output. The FE layer knows nothing about what a
-material models: it only calls ``energy(F)`` and ``evaluate(F)``.
+the scatter indices and the shape-function gradients are built once. An evaluation runs on one
+of two paths with the same mathematics (results equal up to round-off):
+
+- compiled (the default): numba-compiled element loops (fem/_kernels.py) compute F, form each
+  element's vector or matrix (PSD-projected per element if asked) and add it straight into the
+  gradient or the CSR data array; the material is evaluated between them by its
+  ``evaluate_compiled`` where it has one, by ``evaluate`` otherwise;
+- numpy: a few batched numpy kernels and one ``bincount`` per output (``kernels="numpy"``, or
+  ``HYDROJAM_COMPILED=0`` in the environment); the reference the compiled path is tested against.
+
+The FE layer knows nothing about what a material models: it only calls ``energy(F)`` and
+``evaluate(F)`` (or ``evaluate_compiled(F, order)``).
 """
 
 from __future__ import annotations
@@ -16,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from hydrojam.fem._env import flag
 from hydrojam.fem.elements import ReferenceElement, physical_gradients
 from hydrojam.fem.terms import EnergyTerm
 from hydrojam.materials.energies import Material
@@ -45,7 +55,7 @@ def _block_geometry(X: np.ndarray, block: Block) -> _Geometry:
     cells = np.asarray(block.cells, dtype=np.int64)
     dNdX, dV = physical_gradients(block.element, X[cells])
     edofs = (cells[:, :, None] * d + np.arange(d)).reshape(len(cells), -1)
-    return _Geometry(cells, dNdX, dV, edofs)
+    return _Geometry(cells, np.ascontiguousarray(dNdX), np.ascontiguousarray(dV), edofs)
 
 
 @dataclass(frozen=True)
@@ -100,7 +110,14 @@ class Solid(EnergyTerm):
     are per unit thickness [mJ/mm] and forces [N/mm].
     """
 
-    def __init__(self, X: np.ndarray, blocks: list[Block], name: str = "elastic"):
+    def __init__(self, X: np.ndarray, blocks: list[Block], name: str = "elastic", kernels: str | None = None):
+        """``kernels``: "compiled" or "numpy" (see the module docstring); None: "compiled" unless
+        the environment sets HYDROJAM_COMPILED=0."""
+        if kernels is None:
+            kernels = "compiled" if flag("HYDROJAM_COMPILED", True) else "numpy"
+        if kernels not in ("compiled", "numpy"):
+            raise ValueError(f'kernels must be "compiled" or "numpy" (got {kernels!r})')
+        self.kernels = kernels
         names = [b.name for b in blocks]
         if len(set(names)) != len(names):
             raise ValueError(f"block names must be unique in a Solid (got {names})")
@@ -136,8 +153,26 @@ class Solid(EnergyTerm):
         new._flux = None  # computed with the old materials
         return new
 
+    @property
+    def compiled(self) -> bool:
+        """Whether evaluations take the compiled path."""
+        return self.kernels == "compiled"
+
     def _F(self, x: np.ndarray, g: _Geometry) -> np.ndarray:
+        if self.compiled:
+            x = np.ascontiguousarray(x, dtype=float).reshape(-1, self.dim)
+            return _kernels().deformation_gradients(x, g.cells, g.dNdX, (0,) * self.dim)
         return np.einsum("eai,eqaj->eqij", x[g.cells], g.dNdX, optimize=True)
+
+    def _response(self, material: Material, F: np.ndarray, order: int):
+        """W (order 0), P (order 1) or A (order 2) of ``material`` at F, by the path's means."""
+        if self.compiled and hasattr(material, "evaluate_compiled"):
+            r = material.evaluate_compiled(F, order)
+        elif order == 0:
+            return material.energy(F)
+        else:
+            r = material.evaluate(F, tangent=order == 2)
+        return (r.energy, r.stress, r.tangent)[order]
 
     def deformation_gradients(self, x: np.ndarray) -> dict[str, np.ndarray]:
         """F at every quadrature point, per block name: {name: (ne, nq, d, d)}."""
@@ -151,7 +186,7 @@ class Solid(EnergyTerm):
     def energy(self, x: np.ndarray) -> float:
         total = 0.0
         for b, g in zip(self.blocks, self._geoms):
-            W = b.material.energy(self._F(x, g))
+            W = self._response(b.material, self._F(x, g), 0)
             e = float(np.sum(W * g.dV))
             if not np.isfinite(e):
                 return np.inf
@@ -160,13 +195,17 @@ class Solid(EnergyTerm):
 
     def block_energies(self, x: np.ndarray) -> dict[str, float]:
         """Energy of each block [mJ; mJ/mm in 2D], per block name."""
-        return {b.name: float(np.sum(b.material.energy(self._F(x, g)) * g.dV)) for b, g in zip(self.blocks, self._geoms)}
+        return {b.name: float(np.sum(self._response(b.material, self._F(x, g), 0) * g.dV))
+                for b, g in zip(self.blocks, self._geoms)}
 
     def gradient(self, x: np.ndarray) -> np.ndarray:
         out = np.zeros(self.ndof)
         flux = np.zeros(self.ndof)
         for b, g in zip(self.blocks, self._geoms):
-            P = b.material.evaluate(self._F(x, g), tangent=False).stress
+            P = self._response(b.material, self._F(x, g), 1)
+            if self.compiled:
+                _kernels().scatter_forces(np.ascontiguousarray(P), g.dNdX, g.dV, g.edofs, out, flux, (0,) * self.dim)
+                continue
             fe = np.einsum("eq,eqij,eqaj->eai", g.dV, P, g.dNdX, optimize=True)  # element forces [N]
             out += np.bincount(g.edofs.ravel(), weights=fe.ravel(), minlength=self.ndof)
             flux += np.bincount(g.edofs.ravel(), weights=np.abs(fe).ravel(), minlength=self.ndof)
@@ -185,12 +224,41 @@ class Solid(EnergyTerm):
         """Element stiffness matrices per block, in block order [(ne, nen*d, nen*d)] [N/mm]."""
         out = []
         for b, g in zip(self.blocks, self._geoms):
-            A = b.material.evaluate(self._F(x, g), tangent=True).tangent
+            A = self._response(b.material, self._F(x, g), 2)
             ne, nq, nen, d = g.dNdX.shape
+            if self.compiled:
+                Ke = np.empty((ne, nen * d, nen * d))
+                _element_matrices(project)(np.ascontiguousarray(A), g.dNdX, g.dV, _NO_SLOTS, _NO_DATA, Ke, (0,) * d)
+                out.append(Ke)
+                continue
             AG = np.einsum("eqijkl,eqbl->eqijkb", A, g.dNdX, optimize=True)
             Ke = np.einsum("eq,eqaj,eqijkb->eaibk", g.dV, g.dNdX, AG, optimize=True).reshape(ne, nen * d, nen * d)
             out.append(project_psd(Ke) if project else Ke)
         return out
 
     def hessian(self, x: np.ndarray, project: bool = False) -> sp.csr_matrix:
-        return self._pat.matrix(self.element_hessians(x, project))
+        if not self.compiled:
+            return self._pat.matrix(self.element_hessians(x, project))
+        data = np.zeros(len(self._pat.indices))
+        for b, g, slots in zip(self.blocks, self._geoms, self._pat.slots):
+            A = np.ascontiguousarray(self._response(b.material, self._F(x, g), 2))
+            m = g.edofs.shape[1]
+            _element_matrices(project)(A, g.dNdX, g.dV, slots.reshape(-1, m, m), data, _NO_K, (0,) * self.dim)
+        return sp.csr_matrix((data, self._pat.indices, self._pat.indptr), shape=(self.ndof, self.ndof))
+
+
+def _kernels():
+    """fem/_kernels.py, imported on first use: ``import hydrojam`` does not load numba."""
+    from hydrojam.fem import _kernels as k
+
+    return k
+
+
+def _element_matrices(project: bool):
+    return _kernels().element_matrices_psd if project else _kernels().element_matrices
+
+
+# Empty stand-ins for the outputs a compiled element loop is not asked for.
+_NO_SLOTS = np.zeros((0, 0, 0), dtype=np.int64)
+_NO_DATA = np.zeros(0)
+_NO_K = np.zeros((0, 0, 0))

@@ -12,6 +12,11 @@ never sees a NaN.
 All materials here are isotropic functions of two invariants, ``I1 = tr(C)`` and ``J = det F`` of
 a possibly pre-stretched gradient ``c^(1/2) F`` (``c = lambda0^2`` for the gel, whose energy is
 defined per dry volume, ``c = 1`` otherwise), so one kernel differentiates them all.
+
+Compiled path: besides the numpy ``evaluate``, each material here has ``evaluate_compiled(F,
+order)``, the same W, P, A from one numba-compiled loop over the points (the same formulas, so the
+results differ only in round-off). It is optional: the finite-element layer uses it where a
+material has it and ``evaluate`` otherwise. numba is imported on its first call only.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
 KT_OVER_NU_MPA = 40.0
@@ -43,7 +49,8 @@ class MaterialResponse:
 
 @runtime_checkable
 class Material(Protocol):
-    """What the finite-element layer needs from a material."""
+    """What the finite-element layer needs from a material. Optional, outside the protocol:
+    ``evaluate_compiled(F, order)`` (the compiled path, see the module docstring)."""
 
     @property
     def shear_modulus_ref(self) -> float:
@@ -147,6 +154,127 @@ class _InvariantMaterial:
         return MaterialResponse(W, P, A)
 
 
+    # Compiled path: the material's constants as one float array for _compiled_batch.
+    _KIND_YEOH = 0
+    _KIND_GEL = 1
+
+    def _compiled_constants(self) -> NDArray[np.float64]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def evaluate_compiled(self, F: np.ndarray, order: int = 2) -> MaterialResponse:
+        """``evaluate`` by a compiled loop over the points: W [MPa] (order 0), with P [MPa] (order
+        1), with A [MPa] (order 2); P and A are None where not asked for. Same formulas as
+        ``evaluate``, so equal to it up to round-off; +inf / zeros at inadmissible states alike."""
+        if order not in (0, 1, 2):
+            raise ValueError(f"order must be 0, 1 or 2 (got {order})")
+        F = np.asarray(F, dtype=float)
+        shape, d = F.shape[:-2], F.shape[-1]
+        if F.shape[-2] != d or d not in (2, 3):
+            raise ValueError(f"deformation gradients must be 2x2 or 3x3, got {F.shape[-2:]}")
+        F = np.ascontiguousarray(F.reshape(-1, d, d))
+        W, P, A = _compiled_batch()(F, self._compiled_constants(), order, (0,) * d)
+        return MaterialResponse(
+            W.reshape(shape),
+            P.reshape(shape + (d, d)) if order >= 1 else None,
+            A.reshape(shape + (d, d, d, d)) if order >= 2 else None,
+        )
+
+
+def _invariant_batch(F, k, order, dims):  # pragma: no cover - compiled by numba (coverage cannot see it)
+    """W, P, A at the points F (N, d, d) of the material with constants k (see _compiled_constants):
+    k = [kind, c, scale, energy offset, J_min, then 4 of the kind's own]. The numpy path
+    (_InvariantMaterial.evaluate, _yeoh_psi, gel_psi) written out per point. ``dims`` is any
+    tuple of d integers: its length is known when compiling, so the loops over d are unrolled."""
+    N, d = F.shape[0], len(dims)
+    kind, c, s, off, Jmin = k[0], k[1], k[2], k[3], k[4]
+    c15 = c**1.5
+    W = np.empty(N)
+    P = np.zeros((N if order >= 1 else 0, d, d))
+    A = np.zeros((N if order >= 2 else 0, d, d, d, d))
+    G = np.empty((d, d))
+    for n in range(N):
+        f = F[n]
+        if d == 2:
+            det = f[0, 0] * f[1, 1] - f[0, 1] * f[1, 0]
+            G[0, 0], G[0, 1], G[1, 0], G[1, 1] = f[1, 1], -f[1, 0], -f[0, 1], f[0, 0]
+        else:
+            for r in range(3):
+                r1, r2 = (r + 1) % 3, (r + 2) % 3  # cofactor row r = F[r1] x F[r2]
+                G[r, 0] = f[r1, 1] * f[r2, 2] - f[r1, 2] * f[r2, 1]
+                G[r, 1] = f[r1, 2] * f[r2, 0] - f[r1, 0] * f[r2, 2]
+                G[r, 2] = f[r1, 0] * f[r2, 1] - f[r1, 1] * f[r2, 0]
+            det = f[0, 0] * G[0, 0] + f[0, 1] * G[0, 1] + f[0, 2] * G[0, 2]
+        J = c15 * det
+        if not (det > 0.0 and J > Jmin):
+            W[n] = np.inf  # P, A stay zero
+            continue
+        ff = 0.0
+        for i in range(d):
+            for j in range(d):
+                ff += f[i, j] * f[i, j]
+        I1 = c * (ff + (3 - d))
+        p11 = p1J = 0.0
+        if kind == 0.0:  # Yeoh (neo-Hookean: C20 = C30 = 0)
+            C1, C2, C3, K = k[5], k[6], k[7], k[8]
+            a = J ** (-2.0 / 3.0)
+            Ib = a * I1
+            x = Ib - 3.0
+            psi = C1 * x + C2 * x**2 + C3 * x**3 + 0.5 * K * (J - 1.0) ** 2
+            U1 = C1 + 2.0 * C2 * x + 3.0 * C3 * x**2
+            U2 = 2.0 * C2 + 6.0 * C3 * x
+            dIb_dJ = -2.0 / 3.0 * Ib / J
+            p1 = U1 * a
+            pJ = U1 * dIb_dJ + K * (J - 1.0)
+            p11 = U2 * a * a
+            p1J = U2 * a * dIb_dJ + U1 * (-2.0 / 3.0) * a / J
+            pJJ = U2 * dIb_dJ**2 + U1 * (10.0 / 9.0) * Ib / J**2 + K
+        else:  # the gel, per dry volume
+            nn, chi0, chi1, mu = k[5], k[6], k[7], k[8]
+            iJ = 1.0 / J
+            l1 = np.log1p(-iJ)
+            psi = (0.5 * nn * (I1 - 3.0 - 2.0 * np.log(J)) + (J - 1.0) * l1 + (chi0 + chi1 * iJ) * (1.0 - iJ)
+                   - mu * (J - 1.0))
+            g = l1 + iJ + (chi0 - chi1) * iJ**2 + 2.0 * chi1 * iJ**3 - mu
+            p1 = 0.5 * nn
+            pJ = -nn * iJ + g
+            pJJ = nn * iJ**2 + iJ**2 / (J - 1.0) - 2.0 * (chi0 - chi1) * iJ**3 - 6.0 * chi1 * iJ**4
+        W[n] = s * psi - off
+        if order == 0:
+            continue
+        for i in range(d):
+            for j in range(d):
+                G[i, j] /= det  # now F^-T
+        for i in range(d):
+            for j in range(d):
+                P[n, i, j] = s * (p1 * (2.0 * c * f[i, j]) + pJ * (J * G[i, j]))
+        if order == 1:
+            continue
+        for i in range(d):
+            for j in range(d):
+                a1, aJ = 2.0 * c * f[i, j], J * G[i, j]
+                for kk in range(d):
+                    for ll in range(d):
+                        b1, bJ = 2.0 * c * f[kk, ll], J * G[kk, ll]
+                        v = p11 * a1 * b1 + p1J * (a1 * bJ + aJ * b1) + pJJ * aJ * bJ
+                        v += pJ * J * (G[i, j] * G[kk, ll] - G[i, ll] * G[kk, j])
+                        if i == kk and j == ll:
+                            v += 2.0 * c * p1
+                        A[n, i, j, kk, ll] = s * v
+    return W, P, A
+
+
+_COMPILED = []
+
+
+def _compiled_batch():
+    """The numba-compiled _invariant_batch (compiled on first use, cached on disk)."""
+    if not _COMPILED:
+        import numba
+
+        _COMPILED.append(numba.njit(cache=True)(_invariant_batch))
+    return _COMPILED[0]
+
+
 # --------------------------------------------------------------------------------------------
 # Elastomers
 
@@ -201,6 +329,9 @@ class NeoHookean(_Frozen, _InvariantMaterial):
     def _psi(self, I1, J, order):
         return _yeoh_psi(I1, J, (0.5 * self.shear_modulus,), self.bulk_modulus, order)
 
+    def _compiled_constants(self):
+        return np.array([self._KIND_YEOH, 1.0, 1.0, 0.0, 0.0, 0.5 * self.shear_modulus, 0.0, 0.0, self.bulk_modulus])
+
 
 class Yeoh(_Frozen, _InvariantMaterial):
     """Compressible Yeoh solid (Abaqus form): W = sum_i C_i0 (I1bar - 3)^i + K/2 (J - 1)^2.
@@ -226,6 +357,9 @@ class Yeoh(_Frozen, _InvariantMaterial):
 
     def _psi(self, I1, J, order):
         return _yeoh_psi(I1, J, (self.c10, self.c20, self.c30), self.bulk_modulus, order)
+
+    def _compiled_constants(self):
+        return np.array([self._KIND_YEOH, 1.0, 1.0, 0.0, 0.0, self.c10, self.c20, self.c30, self.bulk_modulus])
 
 
 # --------------------------------------------------------------------------------------------
@@ -345,6 +479,11 @@ class Hydrogel(_InvariantMaterial):
 
     def _psi(self, I1, J, order):
         return gel_psi(self.params, self.mu, self.T, I1, J, order)
+
+    def _compiled_constants(self):
+        chi0, chi1 = self.params.chi_coefficients(self.T)
+        return np.array([self._KIND_GEL, self._prestretch_sq, self._scale, self._energy_offset, 1.0,
+                         self.params.n, chi0, chi1, self.mu])
 
     def swelling_ratio(self, F: np.ndarray) -> np.ndarray:
         """Volume ratio to the dry network, J_dry = lambda0^3 det F [-]."""
