@@ -198,12 +198,13 @@ def simulate(
 
 
 def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80, first_scale: float = 1.0,
-             easy_round: int = 20, lower: float = 10.0, direct: bool = False):
+             easy_round: int | None = None, lower: float = 10.0, direct: bool = False):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
     on the last state, again and again, the damping (``first_scale`` x the path's at first)
-    lowered ``lower``x after every easy round (<= ``easy_round`` Newton iterations) and raised
-    10x after a failed one. ``direct``: try the undamped minimisation first, and the rounds only
-    if it fails. The viscous force left at the end of a round is exactly the residual of the
+    lowered ``lower``x after every converged round (with ``easy_round``: only after a round of
+    at most that many Newton iterations) and raised 10x after a failed one. ``direct``: first
+    minimise the physics alone (damping 0) from the stabilised state, and the rounds only if
+    that fails. The viscous force left at the end of a round is exactly the residual of the
     physics alone, so the state is an equilibrium once that force is below the solver's
     tolerance (rtol x the forces in play). Returns (x, Newton iterations, released, rounds): x
     the last converged round's state, released False if the rounds ran out (or the damping had
@@ -238,6 +239,6 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80, fi
         in_play = float(np.linalg.norm(by_name(ts)["elastic"].force_flux(x)[free]))
         if viscous <= max(rtol * in_play, options.newton.residual_floor * problem.force_scale):
             return x, its, True, rounds
-        if res.iterations <= easy_round:
+        if easy_round is None or res.iterations <= easy_round:
             scale = max(scale / lower, 1e-8)
     return x, its, False, rounds
