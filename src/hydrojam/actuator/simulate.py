@@ -169,10 +169,10 @@ def simulate(
         raise RuntimeError("the solver returned non-finite positions")
     released = stab is None
     newton_iterations = res.newton_iterations
-    release_seconds = 0.0
+    release_seconds, rounds = 0.0, []
     if stab is not None and res.converged:
         t_release = time.perf_counter()
-        x, its, released = _release(problem, stab, res.x, options, terms, res.timings)
+        x, its, released, rounds = _release(problem, stab, res.x, options, terms, res.timings)
         newton_iterations += its
         release_seconds = time.perf_counter() - t_release
         states.pop()
@@ -191,23 +191,36 @@ def simulate(
         message += ("; the stabilisation could not be fully released at s = 1: the final state keeps "
                     "a viscous force above the tolerance")
     stabilisation_info = {"damping_N_per_mm3": 0.0 if stab is None else stab.damping,
-                          "max_energy_ratio": ratio[0], "released": released}
+                          "max_energy_ratio": ratio[0], "released": released,
+                          "release_rounds": [{"scale": sc, "iterations": n, "converged": ok} for sc, n, ok in rounds]}
     return SimulationResult(model, states, res.converged, message, wall, newton_iterations,
                             res.rejected_steps, timings, stabilisation_info)
 
 
-def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80):
+def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80, first_scale: float = 1.0,
+             easy_round: int | None = None, lower: float = 10.0, direct: bool = False):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
-    on the last state, again and again, the damping lowered 10x after every easy round (<= 20
-    Newton iterations) and raised 10x after a failed one. The viscous force left at the end of a
-    round is exactly the residual of the physics alone, so the state is an equilibrium once that
-    force is below the solver's tolerance (rtol x the forces in play). Returns (x, Newton
-    iterations, released): x the last converged round's state, released False if the rounds ran
-    out (or the damping had to exceed 1000x) first."""
+    on the last state, again and again, the damping (``first_scale`` x the path's at first)
+    lowered ``lower``x after every converged round (with ``easy_round``: only after a round of
+    at most that many Newton iterations) and raised 10x after a failed one. ``direct``: first
+    minimise the physics alone (damping 0) from the stabilised state, and the rounds only if
+    that fails. The viscous force left at the end of a round is exactly the residual of the
+    physics alone, so the state is an equilibrium once that force is below the solver's
+    tolerance (rtol x the forces in play). Returns (x, Newton iterations, released, rounds): x
+    the last converged round's state, released False if the rounds ran out (or the damping had
+    to exceed 1000x) first, rounds a list of (damping scale, Newton iterations, converged)."""
     free = problem.free_mask()
     rtol = options.newton.rtol
     solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: PARDISO's set-up costs 0.4 s
-    its, scale = 0, stab.scale
+    its, scale, rounds = 0, first_scale * stab.scale, []
+    if direct:
+        stab.scale = 0.0
+        res = minimize(terms(1.0), x, free, problem.force_scale, options.newton, solver)
+        its += res.iterations
+        timings.add(res.timings)
+        rounds.append((0.0, res.iterations, res.converged))
+        if res.converged:
+            return res.x, its, True, rounds
     for _ in range(max_rounds):
         stab.scale = scale
         stab.begin_step(x)
@@ -215,6 +228,7 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80):
         res = minimize(ts, x, free, problem.force_scale, options.newton, solver)
         its += res.iterations
         timings.add(res.timings)
+        rounds.append((scale, res.iterations, res.converged))
         if not res.converged:
             if scale >= 1e3:
                 break
@@ -224,7 +238,7 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80):
         viscous = float(np.linalg.norm(stab.gradient(x)[free]))
         in_play = float(np.linalg.norm(by_name(ts)["elastic"].force_flux(x)[free]))
         if viscous <= max(rtol * in_play, options.newton.residual_floor * problem.force_scale):
-            return x, its, True
-        if res.iterations <= 20:
-            scale = max(scale / 10.0, 1e-8)
-    return x, its, False
+            return x, its, True, rounds
+        if easy_round is None or res.iterations <= easy_round:
+            scale = max(scale / lower, 1e-8)
+    return x, its, False, rounds

@@ -1,0 +1,115 @@
+"""Where an actuator simulation's Newton iterations go, and what a change of the path (step
+control, stabilisation, its release at s = 1) does to them and to the answer (issue 12, lever b).
+
+Run:  .venv/bin/python benchmarks/path.py [--variant NAME ...] [--design one_layer|default ...]
+                                          [--seeds 0 1 2] [--steps]
+
+For every variant and design it prints Newton iterations on the load path and in the release of
+the stabilisation (with its rounds: damping scale and iterations), wall time, whether the final
+state is an equilibrium without stabilisation ("released"), bending angle and tip. ``--seeds``
+runs round-off replicas instead of a design: the stimulus path's interior knots jittered by 1e-7 x a
+standard normal (a test harness, not a library feature), since one run's angle of the default
+design is one sample of its round-off spread (docs/actuator.md, "Path dependence"). ``--steps``
+prints the iterations of every load step.
+
+Iteration counts are deterministic; wall times are disturbed by whatever else runs (the load is
+printed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import functools
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import print_load, table  # noqa: E402
+
+import hydrojam.actuator.simulate as simulate_module  # noqa: E402
+from hydrojam.actuator.design import apply_overrides, default_design  # noqa: E402
+from hydrojam.actuator.model import build_model  # noqa: E402
+
+DESIGNS = {"one_layer": ["particle_layers=1"], "default": [],
+           "near_prepared": ["particle_layers=1", "mesh.size=4", "stimulus.mu=-0.0343", "stimulus.temperature=300"]}
+
+#: variant name -> (keyword arguments of simulate, keyword arguments of the release)
+VARIANTS = {
+    "main": ({}, {}),
+    "release_lower_after_easy_rounds": ({}, {"easy_round": 20}),
+    "release_lower_every_round": ({}, {"easy_round": None}),
+    "release_direct": ({}, {"direct": True, "easy_round": 20}),
+    "release_first_0.1": ({}, {"first_scale": 0.1, "easy_round": 20}),
+    "release_lower_100x": ({}, {"lower": 100.0, "easy_round": 20}),
+    "stabilisation_0.001": ({"stabilisation": 1e-3}, {}),
+    "path_easy_60": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, easy_iterations=60)}, {}),
+    "path_ds_0.1_0.2": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, ds0=0.1, ds_max=0.2)}, {}),
+}
+
+
+def jittered(model, seed: int, size: float = 1e-7):
+    """The model with its stimulus path's interior knots t moved by ``size`` x N(0, 1) (seeded):
+    a round-off-sized change of the path, to sample the spread of the answer."""
+    path = model.path
+    t = np.array(path.t_knots, dtype=float)
+    t[1:-1] += size * np.random.default_rng(seed).standard_normal(len(t) - 2)
+    t = np.maximum.accumulate(np.clip(t, 0.0, 1.0))
+    return dataclasses.replace(model, path=dataclasses.replace(path, t_knots=t))
+
+
+def run(design: str, variant: str, seed: int | None, steps: bool) -> list[str]:
+    sim_kw, release_kw = VARIANTS[variant]
+    model = build_model(apply_overrides(default_design(), DESIGNS[design]))
+    if seed is not None:
+        model = jittered(model, seed)
+    original = simulate_module._release
+    simulate_module._release = functools.partial(original, **release_kw)
+    try:
+        t0 = time.perf_counter()
+        calls = []
+        res = simulate_module.simulate(model, on_step=calls.append, **sim_kw)
+        wall = time.perf_counter() - t0
+    finally:
+        simulate_module._release = original
+    m = res.metrics
+    rounds = res.stabilisation.get("release_rounds", [])
+    release_its = sum(r["iterations"] for r in rounds)
+    if len(calls) > 1 and calls[-1].index == calls[-2].index:
+        calls.pop()  # the released final state replaces the path's last, stabilised one
+    if steps:
+        print(f"  {design} {variant} seed {seed}: step iterations "
+              + " ".join(str(st.iterations) for st in calls[1:])
+              + "; release rounds " + " ".join(f"{r['scale']:g}:{r['iterations']}{'' if r['converged'] else '!'}"
+                                               for r in rounds), flush=True)
+    return [design, variant, "-" if seed is None else str(seed), str(res.newton_iterations - release_its),
+            str(release_its), str(len(rounds)), f"{wall:.1f}", str(m["stabilisation_released"]),
+            f"{m['bending_angle_deg']:.2f}", f"({m['tip_dx_mm']:.1f}, {m['tip_dz_mm']:.1f})"]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--variant", nargs="+", default=["main"], choices=sorted(VARIANTS))
+    ap.add_argument("--design", nargs="+", default=["one_layer", "default"], choices=sorted(DESIGNS))
+    ap.add_argument("--seeds", nargs="*", type=int, default=[], help="round-off replicas (knot jitter seeds)")
+    ap.add_argument("--steps", action="store_true", help="print every load step's iterations")
+    args = ap.parse_args(argv)
+    print_load()
+    rows = []
+    for variant in args.variant:
+        for design in args.design:
+            for seed in args.seeds or [None]:
+                rows.append(run(design, variant, seed, args.steps))
+                print("  " + " | ".join(rows[-1]), flush=True)
+    print_load()
+    print()
+    print(table(["design", "variant", "seed", "path its", "release its", "rounds", "wall [s]", "released",
+                 "angle [deg]", "tip (dx, dz) [mm]"], rows, left=3))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
