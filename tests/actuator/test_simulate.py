@@ -92,9 +92,6 @@ def test_actuator_bends_toward_the_strain_limit_layer_and_less_when_warmer():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="Newton stalls at energy round-off near the as-prepared state: "
-                   "fem/newton.py's round-off slack is relative to |E|, but the gel's energy is a sum of "
-                   "large cancelling terms (docs/actuator.md, 'Where the iterations go')")
 def test_a_stimulus_next_to_the_as_prepared_state_takes_few_iterations():
     """A target 6e-6 k_B T from mu0 at T0: the particles swell by 1e-5 without touching anything,
     so every load step is a nearly linear problem that Newton solves in a few iterations, and the

@@ -78,6 +78,11 @@ class NewtonOptions:
     """The line search accepts an energy rise of this x |E| (round-off): full steps near convergence."""
     backtrack: float = 0.5
     """Factor on the step length after a rejected trial."""
+    residual_acceptance: float = 0.5
+    """Within stall_factor of the tolerance, a full step (no CCD cap) that fails the energy test
+    is still taken when it cuts the residual to this x ||g|| or less: there the energy change is
+    below the energy's round-off (a freely swelling gel's energy is a sum of cancelling terms),
+    and the residual is the reliable measure of progress."""
     marquardt_short_step: float = 0.1
     """An accepted step length below this grows the Marquardt damping."""
     marquardt_growth: float = 10.0
@@ -226,6 +231,24 @@ def _line_search(terms, x, E, step, slope, shape, alpha, options: NewtonOptions)
     return alpha, xn, En
 
 
+def _full_step_by_residual(terms, x, E, step, slope, shape, cap, r, tol, fidx, options: NewtonOptions):
+    """Near the tolerance (r <= stall_factor x tol), the full uncapped step judged by the residual
+    where the energy cannot judge it: (1, x_new, E_new) when it is admissible and passes the
+    energy test (what the line search would accept first) or cuts the residual to
+    ``residual_acceptance`` x r; (None, x, E) otherwise, and the line search decides."""
+    if cap < 1.0 or r > options.stall_factor * tol:
+        return None, x, E
+    xn = x + step
+    En = sum_energy(terms, xn.reshape(shape))
+    if not np.isfinite(En):
+        return None, x, E
+    if En <= E + options.armijo * slope + options.energy_slack * abs(E):
+        return 1.0, xn, En
+    xs = xn.reshape(shape)
+    rn = float(np.linalg.norm(sum(t.gradient(xs) for t in terms)[fidx]))
+    return (1.0, xn, En) if rn <= options.residual_acceptance * r else (None, x, E)
+
+
 def _marquardt_update(lm: float, alpha: float, options: NewtonOptions) -> float:
     """The Marquardt damping for the next iteration after a step of length ``alpha``: grown while
     CCD or the line search cut steps hard (a particle held only by barely-active barriers has
@@ -299,7 +322,9 @@ def minimize(
         cap = min([1.0] + [t.max_step(xs, step.reshape(shape)) for t in terms])
         tm.step_cap += time.perf_counter() - t0
         t0 = time.perf_counter()
-        alpha, xn, En = _line_search(terms, x, E, step, slope, shape, cap, options)
+        alpha, xn, En = _full_step_by_residual(terms, x, E, step, slope, shape, cap, r, tol, fidx, options)
+        if alpha is None:
+            alpha, xn, En = _line_search(terms, x, E, step, slope, shape, cap, options)
         tm.line_search += time.perf_counter() - t0
         tm.iterations += 1
         if alpha < options.min_alpha:
