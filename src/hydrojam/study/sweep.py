@@ -375,7 +375,13 @@ def _local_cluster(n_workers: int):
     # ":0": its HTTP server (which starts even without a dashboard) on a free port, not 8787
     # allowed-failures 0: a point that kills its worker (memory, a crash) is recorded as failed
     # at once, not retried 3 more times on fresh workers (a rerun of the sweep retries it)
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+    # MALLOC_TRIM_THRESHOLD_ unset: dask's 64 KiB makes glibc return every large numpy temporary
+    # to the kernel, and the page faults of taking it back cost a simulation 40% more wall time
+    # (docs/sweeps.md); the single-thread settings for BLAS and OpenMP stay
+    environ = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ").items()
+               if k != "MALLOC_TRIM_THRESHOLD_"}
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0,
+                          "distributed.nanny.pre-spawn-environ": environ}):
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                                silence_logs=logging.ERROR, memory_limit=0)
     try:
