@@ -13,13 +13,13 @@ $(STAMP): pyproject.toml tools/bootstrap.sh
 
 # The demo fits in about 3 minutes on 2 cores: the swelling curve and the paper's temperature and
 # strain-limit thickness sweeps (quick); the particle-layer sweep (its 19-layer point alone takes
-# about 5 minutes) is added by the command it prints.
+# about 4 minutes) is added by the command it prints.
 demo: $(STAMP)
 	mkdir -p $(DEMO_OUT)
 	$(BIN)/hydrojam swell --t-min 275 --t-max 315 --t-step 2.5 --plot $(DEMO_OUT)/swelling.png
 	$(BIN)/hydrojam reproduce --quick --sweep temperature --sweep strain_limit_thickness -o $(DEMO_OUT)/reproduce
 	@echo "report: $(DEMO_OUT)/reproduce/report.md (figures in $(DEMO_OUT)/reproduce/figures/)"
-	@echo "the particle-layer sweep (about 5 more minutes on 2 cores): $(BIN)/hydrojam reproduce --quick -o $(DEMO_OUT)/reproduce"
+	@echo "the particle-layer sweep (about 4 more minutes on 2 cores): $(BIN)/hydrojam reproduce --quick -o $(DEMO_OUT)/reproduce"
 
 # -n auto: one pytest worker per CPU (the slow contact tests then run side by side)
 test: $(STAMP)
