@@ -278,7 +278,8 @@ def run_design(
 RUN_SUMMARY = ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index", "packing_fraction",
                "contacts_per_particle", "converged", "stabilisation_released", "newton_iterations", "wall_time_s")
 #: added to the summary of a time-resolved run (stimulus.schedule)
-TIMED_SUMMARY = ("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s", "max_bending_angle_deg",
+TIMED_SUMMARY = ("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s", "swelling_time_to_90_percent_s",
+                 "max_bending_angle_deg",
                  "cycle_return_deg", "hysteresis_deg")
 
 

@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import csv
 import math
+import tomllib
 
 import numpy as np
 import pytest
 
-from hydrojam.actuator.design import DesignError, apply_overrides, default_design, design_from_dict
+from hydrojam.actuator.design import DesignError, apply_overrides, default_design, design_from_dict, design_to_toml
 from hydrojam.actuator.metrics import branch_gap, time_to_fraction
 from hydrojam.actuator.model import build_model
 from hydrojam.actuator.results import ResultWriter
@@ -75,6 +76,9 @@ def test_a_schedule_reads_from_toml_and_overrides_and_sets_the_resolved_temperat
     assert default_design().resolved().stimulus == default_design().stimulus  # untimed: unchanged
     with pytest.raises(DesignError, match="stimulus.path: only 'swelling'"):
         apply_overrides(d, ["stimulus.path=linear"])
+    for design in (d, d.resolved()):  # round trip through the commented TOML
+        assert design_from_dict(tomllib.loads(design_to_toml(design))) == design
+    assert "# schedule = [[0, 300], [60, 275], [7200, 275]]" in design_to_toml(default_design())
 
 
 # ------------------------------------------------------------------------------------------------
@@ -145,6 +149,33 @@ def test_a_timed_path_follows_the_kinetics_to_the_target():
     assert path.radius == pytest.approx(2.0 * lam.max() / P.lambda0, rel=1e-12)
 
 
+def test_the_swelling_time_to_90_percent_is_the_series_value():
+    """A step at t = 0 held long: the free cylinder's mean ln J makes 90% of its change at
+    t = 3.3005 tau (the series 1 - sum 4/alpha_n^2 exp(-alpha_n^2 D t/a^2), alpha_n the zeros of
+    J0, tau = a^2/(pi^2 D)), to within the spacing of the samples that bracket it (the time is
+    interpolated linearly between them) and the finite volumes' error."""
+    from scipy.optimize import brentq
+    from scipy.special import jn_zeros
+
+    from hydrojam.actuator.simulate import time_metrics
+
+    alpha = jn_zeros(0, 400)
+    x90 = brentq(lambda x: 1 - np.sum(4 / alpha**2 * np.exp(-alpha**2 * x / np.pi**2)) - 0.9, 1e-3, 10)
+    path = timed_stimulus_path(P, 0.0, ((0.0, 275.0), (1e6, 275.0)), 16.0, 1e-2, 2)
+    tau = path.time_constant_s
+    t90 = time_to_fraction(path.times, path.mean, 0.9)
+    k = np.searchsorted(path.times, x90 * tau)
+    spacing = path.times[k] - path.times[k - 1]
+    assert abs(t90 - x90 * tau) <= spacing + 1e-3 * tau, (t90, x90 * tau, spacing)
+
+    class _State:  # what time_metrics reads of a state
+        def __init__(self, t, theta):
+            self.time_s, self.T, self.s, self.metrics = t, 275.0, 1.0, {"bending_angle_deg": theta}
+
+    m = time_metrics([_State(0.0, 0.0), _State(1e6, 10.0)], path)
+    assert m["swelling_time_to_90_percent_s"] == t90 and m["particle_time_constant_s"] == tau
+
+
 def test_samples_hold_the_schedule_points_and_are_increasing():
     t = sample_times(((0, 300), (60, 275), (600, 275), (660, 310)), tau=100.0)
     assert set([0.0, 60.0, 600.0, 660.0]) <= set(t) and np.all(np.diff(t) > 0) and t[-1] == 660.0
@@ -208,6 +239,7 @@ def test_a_step_bends_monotonically_towards_the_untimed_final_state(untimed, tmp
     assert m["mean_swelling_ratio"] == pytest.approx(m0["mean_swelling_ratio"], rel=1e-4)
     tau = m["particle_time_constant_s"]
     assert 0 < m["time_to_90_percent_angle_s"] < 10 * tau and m["max_bending_angle_deg"] == pytest.approx(final)
+    assert 0 < m["swelling_time_to_90_percent_s"] < 10 * tau
     assert m["cycle_return_deg"] is None and m["hysteresis_deg"] is None
     w = ResultWriter(tmp_path, res.model, vtu=False)
     w.start()
@@ -220,7 +252,8 @@ def test_a_step_bends_monotonically_towards_the_untimed_final_state(untimed, tmp
 def test_untimed_runs_have_no_time(untimed, tmp_path):
     ref, _ = untimed
     m = ref.metrics
-    for key in ("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s", "max_bending_angle_deg",
+    for key in ("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s", "swelling_time_to_90_percent_s",
+                "max_bending_angle_deg",
                 "cycle_return_deg", "hysteresis_deg"):
         assert m[key] is None
     assert all(st.time_s is None for st in ref.states) and with_time(ref.model) is ref.model

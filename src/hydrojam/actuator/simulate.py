@@ -137,7 +137,7 @@ def time_metrics(states: list[StepState], path) -> dict:
     schedule's first hold. ``hysteresis_deg`` compares the states inside rising and inside
     falling segments of the schedule (:func:`~hydrojam.actuator.metrics.branch_gap`)."""
     out = dict.fromkeys(("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s",
-                         "max_bending_angle_deg", "cycle_return_deg", "hysteresis_deg"))
+                         "swelling_time_to_90_percent_s", "max_bending_angle_deg", "cycle_return_deg", "hysteresis_deg"))
     if not getattr(path, "timed", False) or not states:
         return out
     t = np.array([st.time_s for st in states], dtype=float)
@@ -145,6 +145,7 @@ def time_metrics(states: list[StepState], path) -> dict:
     T = np.array([st.T for st in states], dtype=float)
     out["time_s"] = float(t[-1])
     out["particle_time_constant_s"] = path.time_constant_s
+    out["swelling_time_to_90_percent_s"] = time_to_fraction(path.times, path.mean, 0.9)
     out["max_bending_angle_deg"] = float(theta.max())
     if len(states) >= 2:
         out["time_to_90_percent_angle_s"] = time_to_fraction(t, theta, 0.9)

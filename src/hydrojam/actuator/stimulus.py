@@ -114,7 +114,7 @@ def stimulus_path(params: HydrogelParams, mu_target: float, T_target: float, kin
 
 #: samples of each schedule segment, evenly in time, and log-spaced after each schedule point
 _SEGMENT_SAMPLES = 32
-_LOG_SAMPLES = 40
+_LOG_SAMPLES = 160
 #: the log-spaced samples after a schedule point start at this fraction of the time constant
 _LOG_FIRST = 1e-3
 #: share of the load parameter spread evenly over the samples (the rest over the swelling)
