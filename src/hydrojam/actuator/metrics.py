@@ -100,7 +100,7 @@ RUN_FIELDS: tuple[Metric, ...] = (
            "on a cycle (last temperature = first): final angle minus the angle when the temperature first "
            "left its start; 0 = full return", float, "run"),
     Metric("hysteresis_deg", "deg",
-           "largest gap in bending angle between the heating and the cooling states at equal temperature "
+           "largest gap in bending angle between the heating and the cooling ramps at equal temperature "
            "(schedules that rise and fall)", float, "run"),
 )
 

@@ -134,15 +134,15 @@ def time_metrics(states: list[StepState], path) -> dict:
 
     ``cycle_return_deg`` needs a schedule whose last temperature equals its first; the angle
     "when the temperature first left its start" is interpolated in time at the end of the
-    schedule's first hold. ``hysteresis_deg`` compares the states inside rising and inside
-    falling segments of the schedule (:func:`~hydrojam.actuator.metrics.branch_gap`)."""
+    schedule's first hold. ``hysteresis_deg`` compares theta(t) (linear between the states) along
+    the rising and along the falling segments of the schedule, at equal temperature
+    (:func:`~hydrojam.actuator.metrics.branch_gap`)."""
     out = dict.fromkeys(("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s",
                          "swelling_time_to_90_percent_s", "max_bending_angle_deg", "cycle_return_deg", "hysteresis_deg"))
     if not getattr(path, "timed", False) or not states:
         return out
     t = np.array([st.time_s for st in states], dtype=float)
     theta = np.array([st.metrics["bending_angle_deg"] for st in states], dtype=float)
-    T = np.array([st.T for st in states], dtype=float)
     out["time_s"] = float(t[-1])
     out["particle_time_constant_s"] = path.time_constant_s
     out["swelling_time_to_90_percent_s"] = time_to_fraction(path.times, path.mean, 0.9)
@@ -154,10 +154,17 @@ def time_metrics(states: list[StepState], path) -> dict:
     if len(moves) and pts[-1, 1] == pts[0, 1] and states[-1].s >= 1.0:
         t_leave = pts[moves[0], 0]
         out["cycle_return_deg"] = float(theta[-1] - np.interp(t_leave, t, theta))
-    seg = np.clip(np.searchsorted(pts[:, 0], t, side="right") - 1, 0, len(pts) - 2)
-    slope = pts[seg + 1, 1] - pts[seg, 1]
-    rising, falling = slope > 0, slope < 0
-    out["hysteresis_deg"] = branch_gap(T[rising], theta[rising], T[falling], theta[falling])
+    # theta(t), linear between the states, read along every ramp of the schedule (the solver may
+    # put few states on a ramp: at fixed particle volume little moves there)
+    branches = {1: ([], []), -1: ([], [])}
+    for (t0, T0), (t1, T1) in zip(pts[:-1], pts[1:]):
+        if T1 != T0 and t1 <= t[-1]:
+            tt = np.linspace(t0, t1, 101)
+            branches[int(np.sign(T1 - T0))][0].append(np.interp(tt, pts[:, 0], pts[:, 1]))
+            branches[int(np.sign(T1 - T0))][1].append(np.interp(tt, t, theta))
+    if branches[1][0] and branches[-1][0]:
+        out["hysteresis_deg"] = branch_gap(np.concatenate(branches[1][0]), np.concatenate(branches[1][1]),
+                                           np.concatenate(branches[-1][0]), np.concatenate(branches[-1][1]))
     return out
 
 
