@@ -109,6 +109,20 @@ BAD_DESIGNS = [
     ("particle_diameterr = 16.0\n", "particle_diameterr"),
     ("[stimulus]\ntemperature = 400.0\n", "stimulus.temperature"),
     ("dimension = 3\n", "dimension"),
+    # time-resolved stimulus (issue 16): each bad schedule, and a diffusivity <= 0, refused before any work
+    ("[stimulus]\nschedule = [[0, 300], [60, 275], [60, 280]]\n", "stimulus.schedule: times must increase"),
+    ("[stimulus]\nschedule = [[0, 300], [60, 275], [30, 280]]\n", "stimulus.schedule: times must increase"),
+    ("[stimulus]\nschedule = [[10, 300], [60, 275]]\n", "stimulus.schedule: the first time must be 0"),
+    ("[stimulus]\nschedule = [[0, 300], [60, 270]]\n", "stimulus.schedule: point 1: temperature must be in liquid water's range [273.15, 373.15] K"),
+    ("[stimulus]\nschedule = [[0, 380], [60, 300]]\n", "stimulus.schedule: point 0: temperature"),
+    ("[stimulus]\nschedule = [[0, 300]]\n", "stimulus.schedule: needs 2 to 1000"),
+    ("[stimulus]\nschedule = [[0, 300, 1], [60, 275]]\n", "stimulus.schedule: point 0: expected a list of [time_s, temperature_K]"),
+    ("[stimulus]\nschedule = 300\n", "stimulus.schedule: expected a list"),
+    ("[stimulus]\nschedule = [[0, nan], [60, 275]]\n", "stimulus.schedule"),
+    ("[stimulus]\npath = \"linear\"\nschedule = [[0, 300], [60, 275]]\n", "stimulus.path: only 'swelling' with a schedule"),
+    ("[hydrogel]\ndiffusivity = 0.0\n", "hydrogel.diffusivity: must be > 0; allowed range (0, 0.01] mm^2/s"),
+    ("[hydrogel]\ndiffusivity = -1e-4\n", "hydrogel.diffusivity: must be > 0"),
+    ("[hydrogel]\ndiffusivity = 1.0\n", "hydrogel.diffusivity: must be <= 0.01"),
 ]
 
 
@@ -123,6 +137,28 @@ def test_run_refuses_bad_designs_before_any_work(tmp_path, capsys, text, field):
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("hydrojam: error:") and field in lines[0]
     assert not out.exists()
+
+
+def test_run_with_a_schedule_writes_time_and_the_angle_time_figure(tmp_path, capsys):
+    """A time-resolved run (issue 16): history.csv has a filled time column from 0 to the
+    schedule's end, metrics.json the time fields, and angle_time.png is written."""
+    import csv
+    import json
+
+    design = tmp_path / "d.toml"
+    design.write_text("particle_layers = 1\n[hydrogel]\ndiffusivity = 1e-2\n"
+                      "[stimulus]\nschedule = [[0, 300], [60, 275], [1e5, 275]]\n[mesh]\nsize = 4\n")
+    out = tmp_path / "out"
+    rc, _, err = run(capsys, "run", str(design), "-o", str(out), "--no-vtu", "-q")
+    assert rc == 0, err
+    assert (out / "angle_time.png").stat().st_size > 0
+    rows = list(csv.DictReader((out / "history.csv").open()))
+    times = [float(r["time_s"]) for r in rows]
+    assert times[0] == 0.0 and times[-1] == 1e5 and all(b > a for a, b in zip(times, times[1:]))
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["time_s"] == 1e5 and 0 < m["time_to_90_percent_angle_s"] < 1e5
+    assert m["temperature_K"] == 275.0
+    assert "schedule" in (out / "design.toml").read_text()
 
 
 def test_run_refuses_a_bad_override_and_a_missing_file(tmp_path, capsys):

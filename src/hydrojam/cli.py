@@ -222,14 +222,15 @@ def run_design(
     """Simulate one actuator along its stimulus path and write its results to OUT.
 
     OUT gets design.toml (resolved), metrics.json, history.csv, centreline.csv, steps/*.vtu with
-    results.pvd (ParaView) and final.png. Exit status 0 when the target stimulus was reached, 1
+    results.pvd (ParaView) and final.png; with stimulus.schedule (a time-resolved temperature) also
+    angle_time.png, the bending angle against time. Exit status 0 when the target stimulus was reached, 1
     when the solver stopped early (the results then hold the last converged state), 2 on bad input.
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from hydrojam.actuator.model import build_model
     from hydrojam.actuator.results import ResultWriter
-    from hydrojam.actuator.simulate import simulate
+    from hydrojam.actuator.simulate import simulate, with_time
 
     if not design_file.is_file():
         raise InputError(f"{design_file}: no such design file")
@@ -238,13 +239,16 @@ def run_design(
         raise InputError(f"--out: {out} exists and is not a folder")
     make_folder(out)  # before meshing: a folder that cannot be made is refused at once
     console = Console(stderr=True)
-    model = build_model(design)
+    model = with_time(build_model(design))
     writer = ResultWriter(out, model, vtu=vtu)
     writer.start()
     columns = [TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("s = {task.completed:.3f}"),
                TextColumn("{task.fields[info]}"), TimeElapsedColumn()]
     with Progress(*columns, console=console, disable=quiet, transient=False) as progress:
-        task = progress.add_task(f"T -> {design.stimulus.temperature:g} K", total=1.0, info="")
+        schedule = design.stimulus.schedule
+        label = (f"T -> {design.stimulus.temperature:g} K" if schedule is None
+                 else f"schedule to t = {schedule[-1][0]:g} s")
+        task = progress.add_task(label, total=1.0, info="")
 
         seen = set()
 
@@ -252,6 +256,8 @@ def run_design(
             writer.step(state)
             m = state.metrics
             info = f"angle {m['bending_angle_deg']:.1f} deg, iterations {state.iterations}"
+            if state.time_s is not None:
+                info = f"t = {state.time_s:.4g} s, T = {state.T:.1f} K, " + info
             if state.s >= 1.0:  # the stabilised end state first, then the released one (same index)
                 info += "; releasing the stabilisation..." if state.index not in seen else "; final state"
                 seen.add(state.index)
@@ -271,6 +277,10 @@ def run_design(
 #: the metrics of `hydrojam run`'s summary table, in its order (units and meanings from the registry)
 RUN_SUMMARY = ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index", "packing_fraction",
                "contacts_per_particle", "converged", "stabilisation_released", "newton_iterations", "wall_time_s")
+#: added to the summary of a time-resolved run (stimulus.schedule)
+TIMED_SUMMARY = ("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s", "swelling_time_to_90_percent_s",
+                 "max_bending_angle_deg",
+                 "cycle_return_deg", "hysteresis_deg")
 
 
 def _run_summary(title: str, metrics: dict) -> Table:
@@ -282,7 +292,8 @@ def _run_summary(title: str, metrics: dict) -> Table:
     table.add_column("value", justify="right")
     table.add_column("unit")
     table.add_column("meaning")
-    for key in RUN_SUMMARY:
+    keys = RUN_SUMMARY + (TIMED_SUMMARY if metrics.get("time_s") is not None else ())
+    for key in keys:
         m, v = metric(key), metrics.get(key)
         table.add_row(key, f"{v:.4g}" if isinstance(v, float) else str(v), m.unit, m.description)
     return table

@@ -8,6 +8,7 @@ import pytest
 
 from hydrojam._validation import describe_error, field_range
 from hydrojam.actuator.design import (
+    GelSpec,
     Design,
     DesignError,
     ElastomerSpec,
@@ -20,6 +21,7 @@ from hydrojam.actuator.design import (
     write_design,
 )
 from hydrojam.materials.energies import HydrogelParams, NeoHookean, Yeoh
+from hydrojam.materials.kinetics import DEFAULT_DIFFUSIVITY
 
 
 def _refusal(data: dict) -> str:
@@ -43,7 +45,8 @@ def test_defaults_match_design_md():
     assert d.length == pytest.approx(88.6)
     assert d.width == pytest.approx(8 + 4 + 16.2)
     assert (d.stimulus.temperature, d.stimulus.mu, d.stimulus.path) == (275.0, 0.0, "swelling")
-    assert d.hydrogel == HydrogelParams()
+    assert d.hydrogel.params() == HydrogelParams()  # the gel constants; the diffusivity is new (issue 16)
+    assert d.hydrogel == GelSpec() and d.hydrogel.diffusivity == DEFAULT_DIFFUSIVITY
     mat = d.membrane.material()
     assert isinstance(mat, NeoHookean) and mat.shear_modulus == 0.023 and mat.poisson_ratio == 0.45
 
@@ -119,7 +122,7 @@ def test_write_and_load(tmp_path):
         ({"particle_diameter": "big"}, ["particle_diameter", "expected a number", "'big'"]),
         ({"dimension": 4}, ["dimension", "2 or 3"]),
         ({"colour": "red"}, ["colour: unknown key", "particle_diameter", "stimulus"]),
-        ({"stimulus": {"temprature": 280}}, ["stimulus.temprature: unknown key (allowed: temperature, mu, path)"]),
+        ({"stimulus": {"temprature": 280}}, ["stimulus.temprature: unknown key (allowed: temperature, mu, path, schedule)"]),
         ({"stimulus": {"temperature": 400}}, ["stimulus.temperature", "[273.15, 373.15]", "K", "400"]),
         ({"stimulus": {"mu": 0.1}}, ["stimulus.mu", "(-inf, 0.0]", "0.1"]),
         ({"stimulus": {"path": "spiral"}}, ["stimulus.path", "'swelling' or 'linear'"]),
@@ -176,7 +179,7 @@ def test_overrides():
         ("foo=1", "--set foo=1: unknown key foo (allowed: dimension,"),
         (
             "stimulus.temprature=280",
-            "--set stimulus.temprature=280: unknown key stimulus.temprature (allowed: temperature, mu, path)",
+            "--set stimulus.temprature=280: unknown key stimulus.temprature (allowed: temperature, mu, path, schedule)",
         ),
         ("friction.x=1", "--set friction.x=1: friction is not a table"),
         ("stimulus.temperature=400", "--set stimulus.temperature=400: stimulus.temperature: must be <= 373.15"),

@@ -352,5 +352,5 @@ def test_metrics_json_keys_follow_the_registry(model, X, tmp_path):
     written = w.finish(result_of(model, [make_state(model, 0, 0.0, X)]), plot=False)
     keys = list(json.loads((tmp_path / "metrics.json").read_text()))
     assert keys == list(written) == [m.name for m in (*STATE_METRICS, *RUN_FIELDS)] + ["timings_s"]
-    assert HISTORY_COLUMNS[:4] == ["step", "s", "mu_kT", "temperature_K"]
-    assert HISTORY_COLUMNS[4:-2] == [m.name for m in STATE_METRICS]
+    assert HISTORY_COLUMNS[:5] == ["step", "s", "mu_kT", "temperature_K", "time_s"]
+    assert HISTORY_COLUMNS[5:-2] == [m.name for m in STATE_METRICS]

@@ -25,6 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from hydrojam._io import read_toml, write_text_atomic
 from hydrojam._validation import explain_error, field_range, field_unit, non_finite_message, submodel
 from hydrojam.materials.energies import HydrogelParams, NeoHookean, Yeoh
+from hydrojam.materials.kinetics import DEFAULT_DIFFUSIVITY
 
 _REL_TOL = 1e-9  # relative slack of the fit checks: a derived cavity fits exactly
 _YEOH_I1_RANGE = 30.0  # Yeoh stiffness must stay positive for 0 <= I1bar - 3 <= this (uniaxial stretch ~5.6)
@@ -33,6 +34,7 @@ __all__ = [
     "Design",
     "DesignError",
     "ElastomerSpec",
+    "GelSpec",
     "MeshSpec",
     "StimulusSpec",
     "apply_overrides",
@@ -107,8 +109,42 @@ class ElastomerSpec(BaseModel):
         return NeoHookean(shear_modulus=self.shear_modulus, poisson_ratio=self.poisson_ratio)
 
 
+#: water is liquid between these temperatures [K] (at 1 atm): the range of every temperature
+WATER_RANGE_K = (273.15, 373.15)
+#: most points a schedule may have (a schedule is a few steps, ramps or cycles, not a data log)
+MAX_SCHEDULE_POINTS = 1000
+#: largest schedule time [s] (about 30 years: anything longer is a unit mistake)
+MAX_SCHEDULE_TIME_S = 1e9
+#: largest collective diffusion coefficient [mm^2/s]: 1e-8 m^2/s, four times the self-diffusion
+#: coefficient of water at 25 C (2.3e-9 m^2/s); a gel's collective D is 1e-11 to 1e-9 m^2/s
+MAX_DIFFUSIVITY = 1e-2
+
+
+class GelSpec(HydrogelParams):
+    """The hydrogel: the PNIPAM constants of :class:`HydrogelParams` and the collective diffusion
+    coefficient of its swelling kinetics (used by a time-resolved stimulus only)."""
+
+    diffusivity: float = Field(
+        DEFAULT_DIFFUSIVITY, gt=0, le=MAX_DIFFUSIVITY,
+        description="collective diffusion coefficient D of the gel's swelling kinetics, used with "
+        "stimulus.schedule only (docs/kinetics.md) [mm^2/s]",
+    )
+
+    def params(self) -> HydrogelParams:
+        """The gel constants alone (without the diffusivity)."""
+        return HydrogelParams(**self.model_dump(exclude={"diffusivity"}))
+
+
 class StimulusSpec(BaseModel):
-    """Target stimulus (mu [k_B T], T [K]) and the path from the as-prepared (mu0, T0) to it (DESIGN.md 3)."""
+    """Target stimulus (mu [k_B T], T [K]) and the path from the as-prepared (mu0, T0) to it (DESIGN.md 3).
+
+    With a ``schedule`` ([[t_s, T_K], ...]: times strictly increasing from 0, temperatures in
+    liquid water's range, 2 to 1000 points, linear in between; a step is a short ramp) the run
+    is time-resolved (docs/actuator.md, "Actuation in time"): the particles meet the solvent at
+    ``mu`` at t = 0 and the temperature follows the schedule; ``temperature`` is then ignored
+    (the resolved design writes the schedule's last temperature there) and ``path`` must be
+    "swelling".
+    """
 
     model_config = _CONFIG
 
@@ -119,6 +155,53 @@ class StimulusSpec(BaseModel):
         description="load path from (mu0, T0) to the target: 'linear' in the load parameter s, or "
         "'swelling' (s spaced evenly in the free-swelling log-volume)",
     )
+    schedule: tuple[tuple[float, float], ...] | None = Field(
+        None,
+        description="time-resolved temperature: [[t_s, T_K], ...], times strictly increasing from 0, "
+        "T in [273.15, 373.15] K, 2 to 1000 points, linear in between; replaces temperature [s, K]",
+    )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _schedule_shape(cls, data):
+        if not isinstance(data, dict) or data.get("schedule") is None:
+            return data
+        raw = data["schedule"]
+        form = "expected a list of [time_s, temperature_K] points, e.g. [[0, 300], [60, 275], [7200, 275]]"
+        if not isinstance(raw, (list, tuple)):
+            raise ValueError(f"schedule: {form} (got {raw!r:.60})")
+        points = []
+        for k, p in enumerate(raw):
+            if not (isinstance(p, (list, tuple)) and len(p) == 2
+                    and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p)):
+                raise ValueError(f"schedule: point {k}: {form} (got {p!r:.60})")
+            points.append(tuple(p))
+        return {**data, "schedule": tuple(points)}
+
+    @model_validator(mode="after")
+    def _check_schedule(self) -> StimulusSpec:
+        pts = self.schedule
+        if pts is None:
+            return self
+        lo, hi = WATER_RANGE_K
+        if not 2 <= len(pts) <= MAX_SCHEDULE_POINTS:
+            raise ValueError(f"schedule: needs 2 to {MAX_SCHEDULE_POINTS} [time_s, temperature_K] points (got {len(pts)})")
+        if pts[0][0] != 0.0:
+            raise ValueError(f"schedule: the first time must be 0 s (the particles meet the solvent at t = 0; got {_g(pts[0][0])} s)")
+        for k, ((t0, _), (t1, _)) in enumerate(zip(pts[:-1], pts[1:])):
+            if not t1 > t0:
+                raise ValueError(f"schedule: times must increase strictly; point {k + 1} has t = {_g(t1)} s "
+                                 f"after t = {_g(t0)} s")
+        if pts[-1][0] > MAX_SCHEDULE_TIME_S:
+            raise ValueError(f"schedule: times must be <= {_g(MAX_SCHEDULE_TIME_S)} s (got {_g(pts[-1][0])} s)")
+        for k, (_, T) in enumerate(pts):
+            if not lo <= T <= hi:
+                raise ValueError(f"schedule: point {k}: temperature must be in liquid water's range "
+                                 f"[{lo}, {hi}] K (got {_g(T)} K)")
+        if self.path != "swelling":
+            raise ValueError(f"path: only 'swelling' with a schedule (the load parameter follows the "
+                             f"swelling in time; got {self.path!r})")
+        return self
 
 
 class MeshSpec(BaseModel):
@@ -181,9 +264,10 @@ class Design(BaseModel):
     strain_limit_layer: ElastomerSpec = Field(
         ElastomerSpec(), description="strain-limit layer elastomer (default Ecoflex 00-30)"
     )
-    hydrogel: HydrogelParams = Field(
-        HydrogelParams(),
-        description="PNIPAM gel constants; mu0 is derived from the stress-free as-prepared state (lambda0, T0)",
+    hydrogel: GelSpec = Field(
+        GelSpec(),
+        description="PNIPAM gel constants and diffusivity; mu0 is derived from the stress-free as-prepared "
+        "state (lambda0, T0)",
     )
     stimulus: StimulusSpec = Field(StimulusSpec(), description="target stimulus and load path")
     mesh: MeshSpec = Field(MeshSpec(), description="finite-element mesh")
@@ -224,10 +308,13 @@ class Design(BaseModel):
         return self.strain_limit_thickness + 2.0 * self.side_wall_thickness + self.resolved_cavity_width
 
     def resolved(self) -> Design:
-        """A copy with cavity_width, cavity_length (and cavity_depth in 3D) written out explicitly."""
+        """A copy with cavity_width, cavity_length (and cavity_depth in 3D) written out explicitly,
+        and with a schedule, stimulus.temperature set to the schedule's last temperature."""
         update = {"cavity_width": self.resolved_cavity_width, "cavity_length": self.resolved_cavity_length}
         if self.dimension == 3:
             update["cavity_depth"] = self.resolved_cavity_depth
+        if self.stimulus.schedule is not None:
+            update["stimulus"] = self.stimulus.model_copy(update={"temperature": self.stimulus.schedule[-1][1]})
         return self.model_copy(update=update)
 
     # ---------------------------------------------------------------- consistency
@@ -236,8 +323,8 @@ class Design(BaseModel):
     def _check_consistency(self) -> Design:
         for name, value in self.hydrogel.model_dump().items():
             if not math.isfinite(value):
-                raise ValueError(non_finite_message(f"hydrogel.{name}", value, field_range(HydrogelParams, name),
-                                                    field_unit(HydrogelParams, name)))
+                raise ValueError(non_finite_message(f"hydrogel.{name}", value, field_range(GelSpec, name),
+                                                    field_unit(GelSpec, name)))
         d, c = self.particle_diameter, self.clearance
         if not c < d / 4.0:
             raise ValueError(
@@ -377,6 +464,10 @@ _DERIVED = {
 }
 
 
+#: an example for optional keys left out (written commented out)
+_EXAMPLES = {"schedule": "[[0, 300], [60, 275], [7200, 275]]"}
+
+
 def _toml(value) -> str:
     return tomli_w.dumps({"v": value})[len("v = "):].rstrip("\n")
 
@@ -415,6 +506,8 @@ def _field_lines(model: BaseModel, comments: bool, owner: Design | None) -> list
         if value is None:
             if comments and owner is not None and name in _DERIVED:
                 lines += [f"# {name} = {_toml(getattr(owner, _DERIVED[name]))}", ""]
+            elif comments and name in _EXAMPLES:
+                lines += [f"# {name} = {_EXAMPLES[name]}", ""]
             continue
         lines.append(f"{name} = {_toml(value)}")
         if comments:

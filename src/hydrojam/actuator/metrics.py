@@ -82,6 +82,26 @@ RUN_FIELDS: tuple[Metric, ...] = (
            "largest ratio of stabilisation energy to elastomer strain energy over the path", float, "run"),
     Metric("stabilisation_released", "", "the final state is an equilibrium without the viscous stabilisation",
            bool, "run"),
+    # time-resolved runs only (stimulus.schedule; None otherwise): docs/actuator.md "Actuation in time"
+    Metric("time_s", "s", "time of the last converged state since the particles met the solvent (timed runs)",
+           float, "run", "t"),
+    Metric("particle_time_constant_s", "s",
+           "Tanaka-Fillmore time constant a^2/(pi^2 D) of the kinetics' particle radius a (timed runs)",
+           float, "run", "τ"),
+    Metric("time_to_90_percent_angle_s", "s",
+           "first time the bending angle has made 90% of its change from t = 0 to the last state (timed runs)",
+           float, "run", "t90"),
+    Metric("swelling_time_to_90_percent_s", "s",
+           "first time the free particle's mean ln J has made 90% of its change over the schedule (timed runs)",
+           float, "run"),
+    Metric("max_bending_angle_deg", "deg", "largest bending angle over the accepted states (timed runs)",
+           float, "run", "θ_max"),
+    Metric("cycle_return_deg", "deg",
+           "on a cycle (last temperature = first): final angle minus the angle when the temperature first "
+           "left its start; 0 = full return", float, "run"),
+    Metric("hysteresis_deg", "deg",
+           "largest gap in bending angle between the heating and the cooling ramps at equal temperature "
+           "(schedules that rise and fall)", float, "run"),
 )
 
 #: the columns of history.csv, one row per accepted load step
@@ -90,6 +110,7 @@ HISTORY_FIELDS: tuple[Metric, ...] = (
     Metric("s", "-", "load parameter", float, "step", "s"),
     Metric("mu_kT", "k_B T", "solvent chemical potential", float, "step", "μ"),
     Metric("temperature_K", "K", "temperature", float, "step", "T"),
+    Metric("time_s", "s", "time since the particles met the solvent (empty for untimed runs)", float, "step", "t"),
     *STATE_METRICS,
     Metric("newton_iterations", "-", "Newton iterations of this step", int, "step"),
     Metric("wall_time_s", "s", "wall time from the start of the run to this step", float, "step"),
@@ -109,6 +130,41 @@ def metric(name: str) -> Metric:
 def metric_names() -> list[str]:
     """The keys of metrics.json in their order, without ``timings_s``: state metrics, run fields."""
     return list(_BY_NAME)
+
+
+def time_to_fraction(times, values, fraction: float = 0.9) -> float | None:
+    """First time [s] at which ``values`` has made ``fraction`` of its change from the first to
+    the last sample, linear between samples (``times`` increasing); None without a change."""
+    t = np.asarray(times, dtype=float)
+    v = np.asarray(values, dtype=float)
+    change = v[-1] - v[0]
+    if t.size < 2 or change == 0.0 or not np.isfinite(change):
+        return None
+    progress = (v - v[0]) / change
+    k = int(np.argmax(progress >= fraction))  # the first sample at or past the fraction
+    if k == 0:
+        return float(t[0])
+    p0, p1 = progress[k - 1], progress[k]
+    return float(t[k - 1] + (fraction - p0) / (p1 - p0) * (t[k] - t[k - 1]))
+
+
+def branch_gap(T_rising, v_rising, T_falling, v_falling, samples: int = 201) -> float | None:
+    """Largest |v_rising(T) - v_falling(T)| over the temperatures both branches cover: each branch
+    sorted by T and interpolated linearly (meant for one heating and one cooling ramp); None
+    when a branch has fewer than 2 samples or the ranges do not overlap."""
+    branches = []
+    for T, v in ((T_rising, v_rising), (T_falling, v_falling)):
+        T, v = np.asarray(T, dtype=float), np.asarray(v, dtype=float)
+        if T.size < 2:
+            return None
+        order = np.argsort(T, kind="stable")
+        branches.append((T[order], v[order]))
+    lo = max(b[0][0] for b in branches)
+    hi = min(b[0][-1] for b in branches)
+    if not hi > lo:
+        return None
+    grid = np.linspace(lo, hi, samples)
+    return float(np.max(np.abs(np.interp(grid, *branches[0]) - np.interp(grid, *branches[1]))))
 
 
 # Below this total rotation [rad] a centreline counts as straight: the curling index is undefined.

@@ -81,3 +81,41 @@ def plot_actuator(model, state, path: str | os.PathLike) -> None:
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
+
+
+def _time_unit(t_end: float) -> tuple[float, str]:
+    """A readable unit for times up to ``t_end`` [s]: (seconds per unit, name)."""
+    for scale, name in ((86400.0, "d"), (3600.0, "h"), (60.0, "min")):
+        if t_end >= 3.0 * scale:
+            return scale, name
+    return 1.0, "s"
+
+
+def plot_angle_time(states, schedule, path: str | os.PathLike) -> None:
+    """``angle_time.png`` of a time-resolved run: the bending angle against time with the
+    temperature schedule on a twin axis (top), and the free-end displacement against time
+    (bottom). ``states``: the accepted states (each with ``time_s``); ``schedule``: the
+    ((t_s, T_K), ...) points."""
+    t = np.array([st.time_s for st in states], dtype=float)
+    pts = np.asarray(schedule, dtype=float)
+    scale, unit = _time_unit(max(float(pts[-1, 0]), float(t.max())))
+    theta = np.array([st.metrics["bending_angle_deg"] for st in states], dtype=float)
+    dx = np.array([st.metrics["tip_dx_mm"] for st in states], dtype=float)
+    dz = np.array([st.metrics["tip_dz_mm"] for st in states], dtype=float)
+    fig = Figure(figsize=(8, 6.5))
+    ax, ax2 = fig.subplots(2, 1, sharex=True)
+    ax.plot(t / scale, theta, "o-", color="C0", ms=3)
+    ax.set_ylabel("bending angle θ [deg]", color="C0")
+    ax.set_title("actuation in time (each particle: free-swelling kinetics)", fontsize=10)
+    axT = ax.twinx()
+    axT.plot(pts[:, 0] / scale, pts[:, 1], "-", color="C3", lw=1.0)
+    axT.set_ylabel("temperature T [K]", color="C3")
+    ax2.plot(t / scale, dx, "o-", color="C0", ms=3, label="δx (bending direction)")
+    ax2.plot(t / scale, dz, "s-", color="C1", ms=3, label="δz (axis)")
+    ax2.axhline(0.0, color="0.6", lw=0.7)
+    ax2.set_ylabel("free-end displacement [mm]")
+    ax2.set_xlabel(f"time since the particles met the solvent [{unit}]")
+    ax2.legend(fontsize=8)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")

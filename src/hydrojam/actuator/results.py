@@ -6,9 +6,12 @@ Layout of an output folder ``OUT``::
     history.csv       metrics at every accepted load step
     steps/step_NNNN.vtu  the state of every accepted step (quadratic triangles)
     results.pvd       ParaView's index of the steps, a time series in the load parameter s
+                      (in the time [s] with a time-resolved stimulus)
     centreline.csv    final centreline profile: arc length, rotation, curvature
     metrics.json      final metrics, convergence, wall time, Newton iterations
     final.png         deformed actuator over the undeformed outline
+    angle_time.png    with stimulus.schedule only: bending angle, free-end displacement and
+                      temperature against time
 
 VTU fields: point data ``displacement`` [mm]; cell data ``body_id`` (0 membrane, 1 strain-limit
 layer, 2 + k particle k), ``swelling_ratio`` (gel volume over dry-network volume, J = lambda0^3
@@ -35,8 +38,8 @@ from hydrojam.actuator.design import write_design
 from hydrojam.actuator.fields import cell_fields
 from hydrojam.actuator.metrics import HISTORY_FIELDS, STATE_METRICS, centreline_profile, metric_names
 from hydrojam.actuator.model import ActuatorModel
-from hydrojam.actuator.plots import plot_actuator
-from hydrojam.actuator.simulate import SimulationResult, StepState
+from hydrojam.actuator.plots import plot_actuator, plot_angle_time
+from hydrojam.actuator.simulate import SimulationResult, StepState, with_time
 
 #: the columns of history.csv (:data:`hydrojam.actuator.metrics.HISTORY_FIELDS`)
 HISTORY_COLUMNS = [m.name for m in HISTORY_FIELDS]
@@ -70,7 +73,7 @@ def pvd_text(entries: list[tuple[float, str]]) -> str:
 def history_row(state: StepState) -> dict:
     """One row of history.csv: the step's load parameter, stimulus, metrics and cost."""
     m = state.metrics
-    row = {"step": state.index, "s": state.s, "mu_kT": state.mu, "temperature_K": state.T,
+    row = {"step": state.index, "s": state.s, "mu_kT": state.mu, "temperature_K": state.T, "time_s": state.time_s,
            "newton_iterations": state.iterations, "wall_time_s": state.wall_time_s}
     row.update({x.name: m.get(x.name) for x in STATE_METRICS})
     safe = {k: finite_or_none(row.get(k)) for k in HISTORY_COLUMNS}
@@ -101,7 +104,7 @@ class ResultWriter:
 
     def __init__(self, out_dir: str | Path, model: ActuatorModel, vtu: bool = True):
         self.out = Path(out_dir)
-        self.model = model
+        self.model = with_time(model)  # a time-resolved stimulus sets the gel of every state
         self.vtu = vtu
         self.rows: list[dict] = []
         self.entries: list[tuple[float, str]] = []
@@ -115,7 +118,7 @@ class ResultWriter:
         if steps.is_dir():
             for old in steps.glob("step_*.vtu"):
                 old.unlink()
-        for name in ("metrics.json", "final.png", "centreline.csv", "results.pvd", "history.csv"):
+        for name in ("metrics.json", "final.png", "angle_time.png", "centreline.csv", "results.pvd", "history.csv"):
             (self.out / name).unlink(missing_ok=True)
 
     def step(self, state: StepState) -> None:
@@ -130,11 +133,12 @@ class ResultWriter:
         if self.vtu:
             rel = f"steps/step_{state.index:04d}.vtu"
             write_vtu(self.out / rel, self.model, state)
-            self.entries.append((state.s, rel))
+            self.entries.append((state.s if state.time_s is None else state.time_s, rel))
             write_text_atomic(self.out / "results.pvd", pvd_text(self.entries))
 
     def finish(self, result: SimulationResult, plot: bool = True) -> dict:
-        """Write centreline.csv, metrics.json and final.png; returns the metrics written."""
+        """Write centreline.csv, metrics.json and final.png (and angle_time.png on a time-resolved
+        path); returns the metrics written."""
         model, final = self.model, result.final
         cl = model.centreline_nodes
         prof = centreline_profile(model.mesh.points[cl], final.x[cl])
@@ -147,6 +151,8 @@ class ResultWriter:
         metrics["timings_s"] = finite_or_none(result.timings)
         if plot:
             plot_actuator(model, final, self.out / "final.png")
+            if getattr(model.path, "timed", False):
+                plot_angle_time(result.states, model.path.schedule, self.out / "angle_time.png")
         write_text_atomic(self.out / "metrics.json", json.dumps(metrics, indent=2, allow_nan=False) + "\n")
         return metrics
 

@@ -15,8 +15,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hydrojam._io import finite_or_none
-from hydrojam.actuator.metrics import RUN_FIELDS
+from hydrojam.actuator.metrics import RUN_FIELDS, branch_gap, time_to_fraction
 from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
+from hydrojam.actuator.stimulus import timed_stimulus_path
 from hydrojam.fem.linsolve import LinearSolver
 from hydrojam.fem.newton import NewtonOptions, minimize
 from hydrojam.fem.path import PathOptions, solve_path
@@ -33,11 +34,30 @@ ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=3
                             newton=NewtonOptions(max_iter=200))
 
 
+#: load-path settings with a time-resolved stimulus: steps of at most 0.025 in s (40 or more
+#: states), so that theta(t) is resolved (s is spread over the particles' swelling in time)
+TIMED_PATH = dataclasses.replace(ACTUATOR_PATH, ds_max=0.025)
+
+
+def with_time(model: ActuatorModel) -> ActuatorModel:
+    """The model with its time-resolved stimulus path when the design has ``stimulus.schedule``
+    (:func:`hydrojam.actuator.stimulus.timed_stimulus_path`), otherwise (or when it already has
+    one) the model itself. :func:`simulate` and the result writer apply it, so a model from
+    :func:`~hydrojam.actuator.model.build_model` can be passed as it is."""
+    d = model.design
+    if d.stimulus.schedule is None or getattr(model.path, "timed", False):
+        return model
+    path = timed_stimulus_path(d.hydrogel, d.stimulus.mu, d.stimulus.schedule, d.particle_diameter,
+                               d.hydrogel.diffusivity, dimension=d.dimension)
+    return dataclasses.replace(model, path=path)
+
+
 @dataclass(frozen=True)
 class StepState:
     """One accepted equilibrium: load parameter s, stimulus (mu [k_B T], T [K]), positions
     x (n, 2) [mm], metrics (see :func:`hydrojam.actuator.model.measure`), Newton iterations of the step
-    and the wall time since the start [s]."""
+    and the wall time since the start [s]; ``time_s``: the stimulus's time [s] on a
+    time-resolved path, None on an untimed one."""
 
     index: int
     s: float
@@ -47,6 +67,7 @@ class StepState:
     metrics: dict
     iterations: int
     wall_time_s: float
+    time_s: float | None = None
 
 
 @dataclass
@@ -103,12 +124,53 @@ class SimulationResult:
             "stabilisation_energy_ratio": self.stabilisation.get("max_energy_ratio", 0.0),
             "stabilisation_released": self.stabilisation.get("released", True),
         }
+        run.update(time_metrics(self.states, self.model.path))
         return finite_or_none({**self.final.metrics, **{m.name: run[m.name] for m in RUN_FIELDS}})
+
+
+def time_metrics(states: list[StepState], path) -> dict:
+    """The time-resolved run fields (:data:`~hydrojam.actuator.metrics.RUN_FIELDS`, docs/actuator.md
+    "Actuation in time") of accepted ``states`` on ``path``; all None on an untimed path.
+
+    ``cycle_return_deg`` needs a schedule whose last temperature equals its first; the angle
+    "when the temperature first left its start" is interpolated in time at the end of the
+    schedule's first hold. ``hysteresis_deg`` compares theta(t) (linear between the states) along
+    the rising and along the falling segments of the schedule, at equal temperature
+    (:func:`~hydrojam.actuator.metrics.branch_gap`)."""
+    out = dict.fromkeys(("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s",
+                         "swelling_time_to_90_percent_s", "max_bending_angle_deg", "cycle_return_deg", "hysteresis_deg"))
+    if not getattr(path, "timed", False) or not states:
+        return out
+    t = np.array([st.time_s for st in states], dtype=float)
+    theta = np.array([st.metrics["bending_angle_deg"] for st in states], dtype=float)
+    out["time_s"] = float(t[-1])
+    out["particle_time_constant_s"] = path.time_constant_s
+    out["swelling_time_to_90_percent_s"] = time_to_fraction(path.times, path.mean, 0.9)
+    out["max_bending_angle_deg"] = float(theta.max())
+    if len(states) >= 2:
+        out["time_to_90_percent_angle_s"] = time_to_fraction(t, theta, 0.9)
+    pts = np.asarray(path.schedule, dtype=float)
+    moves = np.nonzero(pts[1:, 1] != pts[:-1, 1])[0]
+    if len(moves) and pts[-1, 1] == pts[0, 1] and states[-1].s >= 1.0:
+        t_leave = pts[moves[0], 0]
+        out["cycle_return_deg"] = float(theta[-1] - np.interp(t_leave, t, theta))
+    # theta(t), linear between the states, read along every ramp of the schedule (the solver may
+    # put few states on a ramp: at fixed particle volume little moves there)
+    branches = {1: ([], []), -1: ([], [])}
+    for (t0, T0), (t1, T1) in zip(pts[:-1], pts[1:]):
+        if T1 != T0 and t1 <= t[-1]:
+            tt = np.linspace(t0, t1, 101)
+            branches[int(np.sign(T1 - T0))][0].append(np.interp(tt, pts[:, 0], pts[:, 1]))
+            branches[int(np.sign(T1 - T0))][1].append(np.interp(tt, t, theta))
+    if branches[1][0] and branches[-1][0]:
+        out["hysteresis_deg"] = branch_gap(np.concatenate(branches[1][0]), np.concatenate(branches[1][1]),
+                                           np.concatenate(branches[-1][0]), np.concatenate(branches[-1][1]))
+    return out
 
 
 def simulate(
     model: ActuatorModel,
-    options: PathOptions = ACTUATOR_PATH,
+    options: PathOptions | None = None,
     on_step: Callable[[StepState], None] | None = None,
     on_progress: Callable[[float], None] | None = None,
     stabilisation: float = STABILISATION,
@@ -123,7 +185,13 @@ def simulate(
     node's motion within a load step (:class:`hydrojam.fem.terms.ViscousStabilisation`), released at
     s = 1 so that the final state is an equilibrium without it (0: none). The final state
     replaces the last stabilised one in ``states`` (same index, passed to ``on_step`` again).
+
+    With ``stimulus.schedule`` in the design the path is time-resolved (:func:`with_time`) and
+    ``options`` defaults to :data:`TIMED_PATH`, otherwise to :data:`ACTUATOR_PATH`.
     """
+    model = with_time(model)
+    if options is None:
+        options = TIMED_PATH if model.path.timed else ACTUATOR_PATH
     t_start = time.perf_counter()
     elastic, contact = _Clock(), _Clock()
     stab = None
@@ -144,7 +212,7 @@ def simulate(
     def record(s: float, x: np.ndarray, iterations: int) -> None:
         mu, T = model.stimulus(s)
         st = StepState(len(states), float(s), float(mu), float(T), np.array(x, dtype=float),
-                       measure(model, x), int(iterations), time.perf_counter() - t_start)
+                       measure(model, x), int(iterations), time.perf_counter() - t_start, model.path.time(s))
         states.append(st)
         if on_step is not None:
             on_step(st)

@@ -10,6 +10,13 @@ the swelling stalls or reverses). Near mu = 0 the swelling is most sensitive to 
 so a linear path puts most of the swelling, and of a jammed packing's difficulty, in the last
 percent of s; the swelling path gives every load step a similar share of it. Only the speed
 changes: the states at s = 0 and s = 1, and the path in the (mu, T) plane, are the same.
+
+A time-resolved stimulus (``stimulus.schedule``, docs/actuator.md "Actuation in time") gives a
+:class:`TimedStimulusPath` instead (:func:`timed_stimulus_path`): each particle swells by its own
+free-swelling kinetics (:func:`hydrojam.materials.kinetics.mean_log_swelling`; the confinement's
+effect on the kinetics is neglected), and the path runs through the stimuli (mu_eff(t), T(t)) at
+which free swelling holds exactly the particle's mean swelling at time t. Every path answers
+``path(s) -> (mu, T)`` and ``path.time(s)`` (None on an untimed path).
 """
 
 from __future__ import annotations
@@ -18,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hydrojam.materials.energies import HydrogelParams
+from hydrojam.materials.energies import HydrogelParams, mixing_g
+from hydrojam.materials.kinetics import mean_log_swelling, time_constant
 from hydrojam.materials.swelling import equilibrium_stretches
 
 _N_KNOTS = 65
@@ -66,6 +74,12 @@ class StimulusPath:
         return (self.mu_start + t * (self.mu_target - self.mu_start),
                 self.T_start + t * (self.T_target - self.T_start))
 
+    timed = False
+
+    def time(self, s: float) -> None:
+        """Time [s] at load parameter s: None, an untimed (quasi-static) path has no time."""
+        return None
+
 
 def stimulus_path(params: HydrogelParams, mu_target: float, T_target: float, kind: str = "swelling",
                   dimension: int = 2, mu_start: float | None = None, T_start: float | None = None) -> StimulusPath:
@@ -93,3 +107,144 @@ def stimulus_path(params: HydrogelParams, mu_target: float, T_target: float, kin
     frac = np.maximum.accumulate(np.clip(frac, 0.0, 1.0))
     s = 0.9 * frac + 0.1 * t
     return StimulusPath(mu0, T0, float(mu_target), float(T_target), s, t)
+
+
+# ------------------------------------------------------------------------------------------------
+# Time-resolved stimulus (docs/actuator.md, "Actuation in time")
+
+#: samples of each schedule segment, evenly in time, and log-spaced after each schedule point
+_SEGMENT_SAMPLES = 32
+_LOG_SAMPLES = 160
+#: the log-spaced samples after a schedule point start at this fraction of the time constant
+_LOG_FIRST = 1e-3
+#: share of the load parameter spread evenly over the samples (the rest over the swelling)
+_EVEN_SHARE = 0.1
+
+
+def effective_chemical_potential(params: HydrogelParams, J, T, dimension: int = 2) -> np.ndarray:
+    """The chemical potential mu_eff [k_B T] at which the gel's unconfined equilibrium at
+    temperature T [K] holds exactly the volume ratio J (to the dry network): the free principal
+    stress n (l - 1/l) + (J/l) g(J; mu, T) vanishes (``nominal_stresses``), and
+    g(J; mu, T) = g(J; 0, T) - mu, so
+
+        3D (free, J = l^3):                  mu_eff = g(J; 0, T) + n (l - 1/l) / l^2
+        2D (plane strain, J = l^2 lambda0):  mu_eff = g(J; 0, T) + n (l - 1/l) / (l lambda0)
+
+    Vectorised over J and T (broadcast)."""
+    J, T = np.broadcast_arrays(np.asarray(J, dtype=float), np.asarray(T, dtype=float))
+    if dimension == 3:
+        lam = np.cbrt(J)
+        per = lam**2
+    else:
+        lam = np.sqrt(J / params.lambda0)
+        per = lam * params.lambda0
+    return mixing_g(params, J, 0.0, T) + params.n * (lam - 1.0 / lam) / per
+
+
+def _log_volume(params: HydrogelParams, lam: np.ndarray, dimension: int) -> np.ndarray:
+    """ln J of unconfined stretches (free in 3D, plane strain with lambda0 out of plane in 2D)."""
+    return 3.0 * np.log(lam) if dimension == 3 else 2.0 * np.log(lam) + np.log(params.lambda0)
+
+
+def schedule_temperature(schedule, times) -> np.ndarray:
+    """Temperature [K] of a schedule ((t_s, T_K) points) at ``times`` [s], linear in between."""
+    pts = np.asarray(schedule, dtype=float)
+    return np.interp(times, pts[:, 0], pts[:, 1])
+
+
+def sample_times(schedule, tau: float) -> np.ndarray:
+    """The times [s] at which a timed path samples the kinetics: the schedule's points, evenly
+    inside each segment, and log-spaced from 1e-3 tau after each point (tau the particle's time
+    constant [s]), where the swelling changes fastest; from 0 to the last point."""
+    t = np.asarray(schedule, dtype=float)[:, 0]
+    parts = [t]
+    for a, b in zip(t[:-1], t[1:]):
+        parts.append(np.linspace(a, b, _SEGMENT_SAMPLES + 1))
+        logs = a + tau * np.logspace(np.log10(_LOG_FIRST), np.log10(max((t[-1] - a) / tau, 2 * _LOG_FIRST)),
+                                     _LOG_SAMPLES)
+        parts.append(logs[logs < t[-1]])
+    out = np.unique(np.concatenate(parts))
+    # merge samples closer than round-off of the times (the kinetics need strictly increasing times)
+    keep = np.concatenate(([True], np.diff(out) > 1e-12 * max(t[-1], 1.0)))
+    out = out[keep]
+    out[-1] = t[-1]
+    return out
+
+
+@dataclass(frozen=True)
+class TimedStimulusPath:
+    """A time-resolved stimulus path: (mu [k_B T], T [K]) and time [s] as functions of the load
+    parameter s in [0, 1], piecewise linear through the sampled states.
+
+    ``s_knots`` (increasing, 0 to 1), ``times`` [s], ``mus`` (the effective mu_eff [k_B T]),
+    ``temperatures`` [K], ``surface`` and ``mean`` (the particle's surface and volume-averaged
+    ln J at each time), ``radius`` [mm] and ``diffusivity`` [mm^2/s] of the kinetics, and the
+    ``schedule`` ((t_s, T_K) points) it follows.
+    """
+
+    s_knots: np.ndarray
+    times: np.ndarray
+    mus: np.ndarray
+    temperatures: np.ndarray
+    surface: np.ndarray
+    mean: np.ndarray
+    radius: float
+    diffusivity: float
+    schedule: tuple
+
+    timed = True
+
+    def __call__(self, s: float) -> tuple[float, float]:
+        """(mu_eff [k_B T], T [K]) at load parameter s."""
+        s = min(max(s, 0.0), 1.0)
+        return float(np.interp(s, self.s_knots, self.mus)), float(np.interp(s, self.s_knots, self.temperatures))
+
+    def time(self, s: float) -> float:
+        """Time [s] since the particles met the solvent, at load parameter s."""
+        return float(np.interp(min(max(s, 0.0), 1.0), self.s_knots, self.times))
+
+    @property
+    def time_constant_s(self) -> float:
+        """Tanaka & Fillmore's tau = a^2 / (pi^2 D) [s] of the path's particle radius."""
+        return time_constant(self.radius, self.diffusivity)
+
+
+def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_diameter: float,
+                        diffusivity: float, dimension: int = 2, cells: int = 400) -> TimedStimulusPath:
+    """The path of an actuator whose particles meet the solvent (chemical potential ``mu``
+    [k_B T]) at t = 0, as prepared (stretch lambda0 of the dry network), while the temperature
+    follows ``schedule`` ((t_s, T_K) points, t from 0, strictly increasing; linear in between).
+
+    Each particle follows its own free-swelling kinetics (a cylinder in 2D, a sphere in 3D;
+    :func:`~hydrojam.materials.kinetics.mean_log_swelling`): its surface holds the unconfined
+    equilibrium at (mu, T(t)) (the branch followed by continuation from lambda0), it starts at
+    ln J = ln lambda0^3, and its radius is the largest unconfined radius over the schedule,
+    (particle_diameter [mm] / 2) x the largest free stretch over lambda0 (Tanaka & Fillmore take
+    the swollen radius; the largest is the slowest, a conservative time). Its mean ln J at each
+    sampled time is held by free swelling at (mu_eff(t), T(t))
+    (:func:`effective_chemical_potential`); the load parameter is spread over the samples as the
+    "swelling" path does: 90% evenly over the (total variation of the) mean log swelling, 10%
+    evenly over the samples, so every load step gets a similar share of the change.
+    """
+    pts = np.asarray(schedule, dtype=float)
+    lam0 = params.lambda0
+    # the radius first (it sets the time constant, hence the samples): the schedule's points
+    # and a fine grid between them (the largest free swelling can lie inside a ramp)
+    probe = np.unique(np.concatenate([np.linspace(a, b, _SEGMENT_SAMPLES + 1) for a, b in zip(pts[:-1, 0], pts[1:, 0])]))
+    lam_probe = _free_stretches(params, np.full(probe.size, float(mu)), schedule_temperature(pts, probe), dimension)
+    radius = 0.5 * particle_diameter * max(lam_probe.max() / lam0, 1.0)
+    times = sample_times(pts, time_constant(radius, diffusivity))
+    Ts = schedule_temperature(pts, times)
+    lam = _free_stretches(params, np.full(times.size, float(mu)), Ts, dimension)  # continuation in time
+    surface = _log_volume(params, lam, dimension)
+    shape = "sphere" if dimension == 3 else "cylinder"
+    mean = mean_log_swelling(times, surface, radius, diffusivity, shape, initial=3.0 * np.log(lam0), cells=cells)
+    mus = effective_chemical_potential(params, np.exp(mean), Ts, dimension)
+    step = np.abs(np.diff(mean))
+    total = step.sum()
+    even = np.full(step.size, 1.0 / step.size)
+    weight = even if total < 1e-9 else (1.0 - _EVEN_SHARE) * step / total + _EVEN_SHARE * even
+    s = np.concatenate(([0.0], np.cumsum(weight)))
+    s /= s[-1]
+    return TimedStimulusPath(s, times, mus, Ts, surface, mean, float(radius), float(diffusivity),
+                             tuple(map(tuple, pts.tolist())))

@@ -1,0 +1,281 @@
+"""Actuation in time (issue 16, docs/actuator.md "Actuation in time"): the schedule's schema, the
+effective chemical potential, the timed stimulus path, the time metrics, and timed runs of a
+one-layer actuator (a step and a 275 -> 310 -> 275 K cycle) against the untimed run."""
+
+from __future__ import annotations
+
+import csv
+import math
+import tomllib
+
+import numpy as np
+import pytest
+
+from hydrojam.actuator.design import DesignError, apply_overrides, default_design, design_from_dict, design_to_toml
+from hydrojam.actuator.metrics import branch_gap, time_to_fraction
+from hydrojam.actuator.model import build_model
+from hydrojam.actuator.results import ResultWriter
+from hydrojam.actuator.simulate import simulate, with_time
+from hydrojam.actuator.stimulus import (
+    effective_chemical_potential,
+    sample_times,
+    stimulus_path,
+    timed_stimulus_path,
+)
+from hydrojam.fem.newton import NewtonOptions
+from hydrojam.materials.energies import HydrogelParams, mixing_g, nominal_stresses
+from hydrojam.materials.kinetics import time_constant
+from hydrojam.materials.swelling import equilibrium_stretches
+
+P = HydrogelParams()
+EPS = np.finfo(float).eps
+
+# ------------------------------------------------------------------------------------------------
+# schema
+
+
+@pytest.mark.parametrize("schedule, expected", [
+    ([[0, 300], [60, 275], [60, 280]], "stimulus.schedule: times must increase strictly; point 2"),
+    ([[0, 300], [60, 275], [59, 280]], "stimulus.schedule: times must increase strictly; point 2"),
+    ([[1, 300], [60, 275]], "stimulus.schedule: the first time must be 0 s"),
+    ([[0, 300], [60, 273.0]], "stimulus.schedule: point 1: temperature must be in liquid water's range"),
+    ([[0, 373.2], [60, 300]], "stimulus.schedule: point 0: temperature must be in liquid water's range"),
+    ([[0, 300]], "stimulus.schedule: needs 2 to 1000"),
+    ([[0, 300]] + [[k, 300] for k in range(1, 1001)], "stimulus.schedule: needs 2 to 1000"),
+    ([[0, 300], [2e9, 300]], "stimulus.schedule: times must be <= 1e+09 s"),
+    ([[0, 300], [60]], "stimulus.schedule: point 1: expected a list of [time_s, temperature_K]"),
+    ([[0, 300], [60, "hot"]], "stimulus.schedule: point 1: expected"),
+    ([[0, 300], [60, True]], "stimulus.schedule: point 1: expected"),
+    ("0 300", "stimulus.schedule: expected a list"),
+    ([[0, 300], [60, math.nan]], "stimulus.schedule.1.1: must be a finite number"),
+])
+def test_bad_schedules_are_refused_with_one_line_naming_the_field(schedule, expected):
+    with pytest.raises(DesignError) as exc:
+        design_from_dict({"stimulus": {"schedule": schedule}})
+    msg = str(exc.value)
+    assert msg.startswith(expected) and "\n" not in msg, msg
+
+
+@pytest.mark.parametrize("value, expected", [
+    (0.0, "hydrogel.diffusivity: must be > 0; allowed range (0, 0.01] mm^2/s (got 0.0)"),
+    (-1e-4, "hydrogel.diffusivity: must be > 0"),
+    (0.1, "hydrogel.diffusivity: must be <= 0.01"),
+    (math.inf, "hydrogel.diffusivity: must be a finite number"),
+])
+def test_bad_diffusivity_is_refused(value, expected):
+    with pytest.raises(DesignError) as exc:
+        design_from_dict({"hydrogel": {"diffusivity": value}})
+    assert str(exc.value).startswith(expected), str(exc.value)
+
+
+def test_a_schedule_reads_from_toml_and_overrides_and_sets_the_resolved_temperature():
+    d = apply_overrides(default_design(), ["stimulus.schedule=[[0, 300], [60, 310.5], [7200, 310.5]]"])
+    assert d.stimulus.schedule == ((0.0, 300.0), (60.0, 310.5), (7200.0, 310.5))
+    assert d.stimulus.temperature == 275.0  # ignored with a schedule ...
+    assert d.resolved().stimulus.temperature == 310.5  # ... and written as the schedule's end
+    assert default_design().resolved().stimulus == default_design().stimulus  # untimed: unchanged
+    with pytest.raises(DesignError, match="stimulus.path: only 'swelling'"):
+        apply_overrides(d, ["stimulus.path=linear"])
+    for design in (d, d.resolved()):  # round trip through the commented TOML
+        assert design_from_dict(tomllib.loads(design_to_toml(design))) == design
+    assert "# schedule = [[0, 300], [60, 275], [7200, 275]]" in design_to_toml(default_design())
+
+
+# ------------------------------------------------------------------------------------------------
+# the effective chemical potential and the timed path
+
+
+@pytest.mark.parametrize("dimension", [2, 3])
+@pytest.mark.parametrize("T", [275.0, 300.0, 305.0, 320.0])
+def test_the_effective_chemical_potential_inverts_free_swelling(dimension, T):
+    """Free swelling at (mu_eff(J, T), T) holds exactly J: the free principal stress vanishes
+    there to round-off (100 eps x the size of its terms), and the equilibrium root finder
+    (Brent to 1e-14 in the stretch) returns J among its stable roots where J is stable and
+    mu_eff <= 0 (the root finder's domain: mu_eff > 0, a gel holding more solvent than a bath at
+    mu <= 0 allows, is a local minimum only, which the finite elements hold but the finder
+    refuses)."""
+    lam0 = P.lambda0
+    for J in np.geomspace(1.5, 40.0, 9):
+        mu = float(effective_chemical_potential(P, J, T, dimension))
+        if dimension == 3:
+            lam = np.full(3, np.cbrt(J))
+            held = ()
+        else:
+            lam = np.array([lam0, math.sqrt(J / lam0), math.sqrt(J / lam0)])
+            held = (lam0,)
+        s = nominal_stresses(P, lam, mu, T)[-1]
+        terms = abs(P.n * (lam[-1] - 1 / lam[-1])) + abs(J / lam[-1] * mixing_g(P, J, mu, T)) + abs(J / lam[-1] * mu)
+        assert abs(s) <= 100 * EPS * terms, (J, s)
+        stable = (effective_chemical_potential(P, J * (1 + 1e-6), T, dimension) > mu)
+        if stable and mu <= 0:
+            roots = equilibrium_stretches(P, mu, T, held)
+            Js = roots**3 if dimension == 3 else roots**2 * lam0
+            assert np.min(np.abs(Js / J - 1)) < 1e-12, (J, Js)
+
+
+@pytest.mark.parametrize("dimension", [2, 3])
+def test_the_as_prepared_state_is_the_start_of_every_timed_path(dimension):
+    """At t = 0 the particles are as prepared (J = lambda0^3): at T0 the effective chemical
+    potential is mu0 (the as-prepared state is stress-free), to round-off."""
+    mu = effective_chemical_potential(P, P.lambda0**3, P.T0, dimension)
+    assert mu == pytest.approx(P.mu0, abs=100 * EPS)
+    path = timed_stimulus_path(P, 0.0, ((0, P.T0), (60, 275.0), (1e5, 275.0)), 4.0, 1e-3, dimension)
+    assert path(0.0) == pytest.approx((P.mu0, P.T0), abs=100 * EPS)
+    assert path.time(0.0) == 0.0 and path.time(1.0) == 1e5
+
+
+def test_a_timed_path_follows_the_kinetics_to_the_target():
+    """A step to 275 K held for 30 time constants: the time rises with s from 0 to the end, the
+    mean swelling moves monotonically from the as-prepared to the free-swelling value, and the
+    last stimulus is the target (mu, 275 K) to within the kinetics' remainder (sphere:
+    (6/pi^2) exp(-30) of the change in ln J, times the osmotic stiffness d mu / d ln J)."""
+    sched = ((0.0, 300.0), (60.0, 275.0))
+    probe = timed_stimulus_path(P, 0.0, sched + ((61.0, 275.0),), 4.0, 1e-3, 3)
+    tau = time_constant(probe.radius, 1e-3)
+    path = timed_stimulus_path(P, 0.0, sched + ((30 * tau, 275.0),), 4.0, 1e-3, 3)
+    s = np.linspace(0, 1, 401)
+    t = np.array([path.time(x) for x in s])
+    assert np.all(np.diff(t) >= 0) and t[0] == 0 and t[-1] == 30 * tau
+    assert np.all(np.diff(path.mean) > 0) and np.all(np.diff(path.s_knots) > 0)
+    change = path.surface[-1] - path.mean[0]
+    # round-off: each of the exact steps sums 400 modes of size |ln J|
+    roundoff = path.times.size * 400 * EPS * abs(path.surface[-1])
+    assert path.mean[-1] == pytest.approx(path.surface[-1], abs=abs(change) * 6 / np.pi**2 * math.exp(-30) * 2 + roundoff)
+    mu, T = path(1.0)
+    stiffness = float(effective_chemical_potential(P, math.exp(path.mean[-1]) * (1 + 1e-6), 275.0, 3) - mu) / 1e-6
+    assert T == 275.0 and abs(mu) <= stiffness * (abs(change) * math.exp(-30) * 2 + roundoff) + 100 * EPS
+    # the radius: the largest free swelling over the schedule, here the final one
+    lam = equilibrium_stretches(P, 0.0, 275.0)
+    assert path.radius == pytest.approx(2.0 * lam.max() / P.lambda0, rel=1e-12)
+
+
+def test_the_swelling_time_to_90_percent_is_the_series_value():
+    """A step at t = 0 held long: the free cylinder's mean ln J makes 90% of its change at
+    t = 3.3005 tau (the series 1 - sum 4/alpha_n^2 exp(-alpha_n^2 D t/a^2), alpha_n the zeros of
+    J0, tau = a^2/(pi^2 D)), to within the spacing of the samples that bracket it (the time is
+    interpolated linearly between them) and the finite volumes' error."""
+    from scipy.optimize import brentq
+    from scipy.special import jn_zeros
+
+    from hydrojam.actuator.simulate import time_metrics
+
+    alpha = jn_zeros(0, 400)
+    x90 = brentq(lambda x: 1 - np.sum(4 / alpha**2 * np.exp(-alpha**2 * x / np.pi**2)) - 0.9, 1e-3, 10)
+    path = timed_stimulus_path(P, 0.0, ((0.0, 275.0), (1e6, 275.0)), 16.0, 1e-2, 2)
+    tau = path.time_constant_s
+    t90 = time_to_fraction(path.times, path.mean, 0.9)
+    k = np.searchsorted(path.times, x90 * tau)
+    spacing = path.times[k] - path.times[k - 1]
+    assert abs(t90 - x90 * tau) <= spacing + 1e-3 * tau, (t90, x90 * tau, spacing)
+
+    class _State:  # what time_metrics reads of a state
+        def __init__(self, t, theta):
+            self.time_s, self.T, self.s, self.metrics = t, 275.0, 1.0, {"bending_angle_deg": theta}
+
+    m = time_metrics([_State(0.0, 0.0), _State(1e6, 10.0)], path)
+    assert m["swelling_time_to_90_percent_s"] == t90 and m["particle_time_constant_s"] == tau
+
+
+def test_samples_hold_the_schedule_points_and_are_increasing():
+    t = sample_times(((0, 300), (60, 275), (600, 275), (660, 310)), tau=100.0)
+    assert set([0.0, 60.0, 600.0, 660.0]) <= set(t) and np.all(np.diff(t) > 0) and t[-1] == 660.0
+
+
+def test_untimed_paths_have_no_time():
+    assert stimulus_path(P, 0.0, 275.0).time(0.5) is None
+
+
+def test_time_to_fraction_and_branch_gap():
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    assert time_to_fraction(t, [0.0, 5.0, 9.5, 10.0], 0.9) == pytest.approx(1.0 + 4.0 / 4.5)
+    assert time_to_fraction(t, [0.0, -5.0, -9.5, -10.0], 0.9) == pytest.approx(1.0 + 4.0 / 4.5)
+    assert time_to_fraction(t, [1.0, 1.0, 1.0, 1.0]) is None
+    up = ([275.0, 300.0, 310.0], [40.0, 40.0, 40.0])
+    down = ([310.0, 290.0, 275.0], [0.0, 10.0, 20.0])
+    assert branch_gap(*up, *down) == pytest.approx(40.0)
+    assert branch_gap(*up, [300.0], [1.0]) is None
+
+
+# ------------------------------------------------------------------------------------------------
+# timed runs of a one-layer actuator
+
+BASE = ["particle_layers=1", "mesh.size=4", "hydrogel.diffusivity=1e-2"]
+
+
+def _run(*extra):
+    return simulate(build_model(apply_overrides(default_design(), [*BASE, *extra])))
+
+
+@pytest.fixture(scope="module")
+def untimed():
+    """The untimed runs to 275 K on the "swelling" and "linear" paths: the final angle's path
+    dependence (jammed contact: the paths end in slightly different equilibria) is their
+    difference."""
+    sw, lin = _run(), _run("stimulus.path=linear")
+    assert sw.converged and lin.converged
+    return sw, abs(sw.metrics["bending_angle_deg"] - lin.metrics["bending_angle_deg"])
+
+
+def test_a_step_bends_monotonically_towards_the_untimed_final_state(untimed, tmp_path):
+    """300 -> 275 K in 60 s, held for about 230 time constants: theta(t) rises monotonically
+    (each state's angle at least the previous one's less the solver's tolerance, rtol of the
+    angle) and ends where the untimed run ends: the particles' area to the solver's tolerance x
+    the area's scale, the angle within 3x the path dependence of the untimed final angle (the
+    timed path is a third path to the same stimulus). history.csv carries the time."""
+    ref, spread = untimed
+    res = _run("stimulus.schedule=[[0, 300], [60, 275], [1e6, 275]]")
+    assert res.converged and res.metrics["stabilisation_released"], res.message
+    theta = np.array([st.metrics["bending_angle_deg"] for st in res.states])
+    times = np.array([st.time_s for st in res.states])
+    final = theta[-1]
+    rtol = NewtonOptions().rtol
+    assert np.all(np.diff(times) > 0) and times[0] == 0 and times[-1] == 1e6
+    assert np.all(np.diff(theta) >= -rtol * abs(final)), np.diff(theta)
+    m, m0 = res.metrics, ref.metrics
+    assert m["mu_kT"] == pytest.approx(0.0, abs=1e-9) and m["temperature_K"] == 275.0
+    assert abs(final - m0["bending_angle_deg"]) <= 3 * spread, (final, m0["bending_angle_deg"], spread)
+    # the area: the solver's tolerance is on forces; 1e-4 relative holds the path dependence of
+    # the contact gaps (dhat 0.08 mm on a 16 mm particle) times the barrier's share of the area
+    assert m["mean_swelling_ratio"] == pytest.approx(m0["mean_swelling_ratio"], rel=1e-4)
+    tau = m["particle_time_constant_s"]
+    assert 0 < m["time_to_90_percent_angle_s"] < 10 * tau and m["max_bending_angle_deg"] == pytest.approx(final)
+    assert 0 < m["swelling_time_to_90_percent_s"] < 10 * tau
+    assert m["cycle_return_deg"] is None and m["hysteresis_deg"] is None
+    w = ResultWriter(tmp_path, res.model, vtu=False)
+    w.start()
+    for st in res.states:
+        w.step(st)
+    rows = list(csv.DictReader((tmp_path / "history.csv").open()))
+    assert [float(r["time_s"]) for r in rows] == pytest.approx(list(times))
+
+
+def test_untimed_runs_have_no_time(untimed, tmp_path):
+    ref, _ = untimed
+    m = ref.metrics
+    for key in ("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s", "swelling_time_to_90_percent_s",
+                "max_bending_angle_deg",
+                "cycle_return_deg", "hysteresis_deg"):
+        assert m[key] is None
+    assert all(st.time_s is None for st in ref.states) and with_time(ref.model) is ref.model
+    w = ResultWriter(tmp_path, ref.model, vtu=False)
+    w.start()
+    w.step(ref.states[0])
+    assert next(csv.DictReader((tmp_path / "history.csv").open()))["time_s"] == ""
+
+
+def test_a_cycle_through_the_transition_returns(untimed):
+    """275 -> 310 -> 275 K (60 s ramps, holds of about 7 time constants, then 200): the angle
+    drops at 310 K and comes back to the untimed 275 K final angle (within its path dependence,
+    as above); the heating and cooling states differ (hysteresis > 0) and the return is
+    reported."""
+    ref, spread = untimed
+    res = _run("stimulus.schedule=[[0, 275], [30000, 275], [30060, 310], [60000, 310], [60060, 275], [1e6, 275]]")
+    assert res.converged, res.message
+    m = res.metrics
+    theta = np.array([st.metrics["bending_angle_deg"] for st in res.states])
+    T = np.array([st.T for st in res.states])
+    hot = theta[T == 310.0]
+    assert hot.size and hot.min() < 0.1 * m["max_bending_angle_deg"]
+    assert abs(m["bending_angle_deg"] - ref.metrics["bending_angle_deg"]) <= 3 * spread
+    assert m["hysteresis_deg"] > 0.5 * m["max_bending_angle_deg"]
+    assert m["cycle_return_deg"] == pytest.approx(m["bending_angle_deg"] - np.interp(30000, [st.time_s for st in res.states], theta))
