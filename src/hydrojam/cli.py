@@ -230,7 +230,7 @@ def run_design(
 
     from hydrojam.actuator.model import build_model
     from hydrojam.actuator.results import ResultWriter
-    from hydrojam.actuator.simulate import simulate, with_time
+    from hydrojam.actuator.simulate import simulate
 
     if not design_file.is_file():
         raise InputError(f"{design_file}: no such design file")
@@ -239,7 +239,7 @@ def run_design(
         raise InputError(f"--out: {out} exists and is not a folder")
     make_folder(out)  # before meshing: a folder that cannot be made is refused at once
     console = Console(stderr=True)
-    model = with_time(build_model(design))
+    model = build_model(design)
     writer = ResultWriter(out, model, vtu=vtu)
     writer.start()
     columns = [TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("s = {task.completed:.3f}"),

@@ -15,7 +15,7 @@ from hydrojam.actuator.design import DesignError, apply_overrides, default_desig
 from hydrojam.actuator.metrics import branch_gap, time_to_fraction
 from hydrojam.actuator.model import build_model
 from hydrojam.actuator.results import ResultWriter
-from hydrojam.actuator.simulate import simulate, with_time
+from hydrojam.actuator.simulate import simulate
 from hydrojam.actuator.stimulus import (
     effective_chemical_potential,
     sample_times,
@@ -256,7 +256,7 @@ def test_untimed_runs_have_no_time(untimed, tmp_path):
                 "max_bending_angle_deg",
                 "cycle_return_deg", "hysteresis_deg"):
         assert m[key] is None
-    assert all(st.time_s is None for st in ref.states) and with_time(ref.model) is ref.model
+    assert all(st.time_s is None for st in ref.states) and ref.model.path.time(1.0) is None
     w = ResultWriter(tmp_path, ref.model, vtu=False)
     w.start()
     w.step(ref.states[0])

@@ -30,7 +30,7 @@ from hydrojam.actuator.metrics import (
     tip_displacement,
 )
 from hydrojam.fem.solver import Problem, fixed
-from hydrojam.actuator.stimulus import StimulusPath, stimulus_path
+from hydrojam.actuator.stimulus import StimulusPath, TimedStimulusPath, stimulus_path, timed_stimulus_path
 
 DHAT_PER_CLEARANCE = 0.8  # barrier activation distance / initial clearance
 KAPPA_PER_MEMBRANE_MODULUS = 1.0  # barrier stiffness / membrane shear modulus (see build_model)
@@ -63,7 +63,7 @@ class ActuatorModel:
     mesh: Mesh
     solid: Solid
     contact: Contact
-    path: StimulusPath
+    path: StimulusPath | TimedStimulusPath
     membrane: Material
     strain_limit: Material
     gel: Hydrogel
@@ -152,8 +152,12 @@ def build_model(design: Design) -> ActuatorModel:
     contact = Contact(mesh.points, facets, components, settings)
     cav = mesh.facet_groups["cavity"]
     segments = cav[:, [0, 2, 2, 1]].reshape(-1, 2) if cav.shape[1] == 3 else cav
-    path = stimulus_path(design.hydrogel, design.stimulus.mu, design.stimulus.temperature,
-                         design.stimulus.path, dimension=design.dimension)
+    if design.stimulus.schedule is not None:  # time-resolved: the particles' kinetics set the path
+        path = timed_stimulus_path(design.hydrogel, design.stimulus.mu, design.stimulus.schedule,
+                                   design.particle_diameter, design.hydrogel.diffusivity, dimension=design.dimension)
+    else:
+        path = stimulus_path(design.hydrogel, design.stimulus.mu, design.stimulus.temperature,
+                             design.stimulus.path, dimension=design.dimension)
     return ActuatorModel(
         design=design, mesh=mesh, solid=solid, contact=contact, path=path, membrane=membrane,
         strain_limit=strain_limit, gel=gel, clamp_nodes=mesh.group_nodes("clamp"),

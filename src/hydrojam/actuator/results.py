@@ -39,7 +39,7 @@ from hydrojam.actuator.fields import cell_fields
 from hydrojam.actuator.metrics import HISTORY_FIELDS, STATE_METRICS, centreline_profile, metric_names
 from hydrojam.actuator.model import ActuatorModel
 from hydrojam.actuator.plots import plot_actuator, plot_angle_time
-from hydrojam.actuator.simulate import SimulationResult, StepState, with_time
+from hydrojam.actuator.simulate import SimulationResult, StepState
 
 #: the columns of history.csv (:data:`hydrojam.actuator.metrics.HISTORY_FIELDS`)
 HISTORY_COLUMNS = [m.name for m in HISTORY_FIELDS]
@@ -104,7 +104,7 @@ class ResultWriter:
 
     def __init__(self, out_dir: str | Path, model: ActuatorModel, vtu: bool = True):
         self.out = Path(out_dir)
-        self.model = with_time(model)  # a time-resolved stimulus sets the gel of every state
+        self.model = model
         self.vtu = vtu
         self.rows: list[dict] = []
         self.entries: list[tuple[float, str]] = []

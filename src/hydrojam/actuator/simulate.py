@@ -17,7 +17,6 @@ import numpy as np
 from hydrojam._io import finite_or_none
 from hydrojam.actuator.metrics import RUN_FIELDS, branch_gap, time_to_fraction
 from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
-from hydrojam.actuator.stimulus import timed_stimulus_path
 from hydrojam.fem.linsolve import LinearSolver
 from hydrojam.fem.newton import NewtonOptions, minimize
 from hydrojam.fem.path import PathOptions, solve_path
@@ -37,19 +36,6 @@ ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=3
 #: load-path settings with a time-resolved stimulus: steps of at most 0.025 in s (40 or more
 #: states), so that theta(t) is resolved (s is spread over the particles' swelling in time)
 TIMED_PATH = dataclasses.replace(ACTUATOR_PATH, ds_max=0.025)
-
-
-def with_time(model: ActuatorModel) -> ActuatorModel:
-    """The model with its time-resolved stimulus path when the design has ``stimulus.schedule``
-    (:func:`hydrojam.actuator.stimulus.timed_stimulus_path`), otherwise (or when it already has
-    one) the model itself. :func:`simulate` and the result writer apply it, so a model from
-    :func:`~hydrojam.actuator.model.build_model` can be passed as it is."""
-    d = model.design
-    if d.stimulus.schedule is None or getattr(model.path, "timed", False):
-        return model
-    path = timed_stimulus_path(d.hydrogel, d.stimulus.mu, d.stimulus.schedule, d.particle_diameter,
-                               d.hydrogel.diffusivity, dimension=d.dimension)
-    return dataclasses.replace(model, path=path)
 
 
 @dataclass(frozen=True)
@@ -139,7 +125,7 @@ def time_metrics(states: list[StepState], path) -> dict:
     (:func:`~hydrojam.actuator.metrics.branch_gap`)."""
     out = dict.fromkeys(("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s",
                          "swelling_time_to_90_percent_s", "max_bending_angle_deg", "cycle_return_deg", "hysteresis_deg"))
-    if not getattr(path, "timed", False) or not states:
+    if not path.timed or not states:
         return out
     t = np.array([st.time_s for st in states], dtype=float)
     theta = np.array([st.metrics["bending_angle_deg"] for st in states], dtype=float)
@@ -186,10 +172,10 @@ def simulate(
     s = 1 so that the final state is an equilibrium without it (0: none). The final state
     replaces the last stabilised one in ``states`` (same index, passed to ``on_step`` again).
 
-    With ``stimulus.schedule`` in the design the path is time-resolved (:func:`with_time`) and
+    With ``stimulus.schedule`` in the design the path is time-resolved (built by
+    :func:`~hydrojam.actuator.model.build_model`) and
     ``options`` defaults to :data:`TIMED_PATH`, otherwise to :data:`ACTUATOR_PATH`.
     """
-    model = with_time(model)
     if options is None:
         options = TIMED_PATH if model.path.timed else ACTUATOR_PATH
     t_start = time.perf_counter()
