@@ -4,8 +4,8 @@ one line naming the option and its allowed range."""
 from __future__ import annotations
 
 import csv
-import io
 import errno
+import io
 import json
 import math
 import os
