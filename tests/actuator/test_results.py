@@ -344,13 +344,31 @@ def test_result_files_get_the_users_permissions(model, X, tmp_path):
 
 
 def test_metrics_json_keys_follow_the_registry(model, X, tmp_path):
-    """metrics.json: the state metrics, then the run fields, in the registry's order, then timings_s."""
+    """metrics.json: the state metrics, then the run fields, in the registry's order, then timings_s
+    and provenance."""
     from hydrojam.actuator.metrics import RUN_FIELDS, STATE_METRICS
 
     w = ResultWriter(tmp_path, model, vtu=False)
     w.start()
     written = w.finish(result_of(model, [make_state(model, 0, 0.0, X)]), plot=False)
     keys = list(json.loads((tmp_path / "metrics.json").read_text()))
-    assert keys == list(written) == [m.name for m in (*STATE_METRICS, *RUN_FIELDS)] + ["timings_s"]
+    assert keys == list(written) == [m.name for m in (*STATE_METRICS, *RUN_FIELDS)] + ["timings_s", "provenance"]
     assert HISTORY_COLUMNS[:5] == ["step", "s", "mu_kT", "temperature_K", "time_s"]
     assert HISTORY_COLUMNS[5:-2] == [m.name for m in STATE_METRICS]
+
+
+def test_metrics_json_records_provenance(monkeypatch):
+    """What defines a result besides the design: the versions of hydrojam and the libraries that
+    set its last bits, the thread settings as set, and the seeds."""
+    from hydrojam.actuator.provenance import run_provenance
+
+    monkeypatch.setenv("HYDROJAM_SOLVER_THREADS", "2")
+    monkeypatch.delenv("HYDROJAM_IPC_THREADS", raising=False)
+    p = run_provenance()
+    from hydrojam import __version__
+
+    assert p["versions"]["hydrojam"] == __version__
+    assert all(p["versions"][name] for name in ("numpy", "scipy", "ipctk", "gmsh", "pypardiso"))
+    assert p["environment"]["HYDROJAM_SOLVER_THREADS"] == "2" and p["environment"]["HYDROJAM_IPC_THREADS"] is None
+    assert p["mesh_seed"] == 1234 and p["seed"] is None
+    json.dumps(p, allow_nan=False)

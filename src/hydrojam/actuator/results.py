@@ -8,7 +8,7 @@ Layout of an output folder ``OUT``::
     results.pvd       ParaView's index of the steps, a time series in the load parameter s
                       (in the time [s] with a time-resolved stimulus)
     centreline.csv    final centreline profile: arc length, rotation, curvature
-    metrics.json      final metrics, convergence, wall time, Newton iterations
+    metrics.json      final metrics, convergence, wall time, Newton iterations, provenance
     final.png         deformed actuator over the undeformed outline
     angle_time.png    with stimulus.schedule only: bending angle, free-end displacement and
                       temperature against time
@@ -38,6 +38,7 @@ from hydrojam.actuator.design import write_design
 from hydrojam.actuator.fields import cell_fields
 from hydrojam.actuator.metrics import HISTORY_FIELDS, STATE_METRICS, centreline_profile, metric_names
 from hydrojam.actuator.model import ActuatorModel
+from hydrojam.actuator.provenance import run_provenance
 from hydrojam.actuator.plots import plot_actuator, plot_angle_time
 from hydrojam.actuator.simulate import SimulationResult, StepState
 
@@ -149,6 +150,7 @@ class ResultWriter:
                           _csv(rows, ["reference_arc_length_mm", "arc_length_mm", "rotation_deg", "curvature_per_mm"]))
         metrics = finite_or_none(ordered_metrics(result.metrics))
         metrics["timings_s"] = finite_or_none(result.timings)
+        metrics["provenance"] = run_provenance()
         if plot:
             plot_actuator(model, final, self.out / "final.png")
             if getattr(model.path, "timed", False):
