@@ -29,23 +29,31 @@ def test_linear_path_is_linear():
     assert T == pytest.approx(P.T0 + 0.25 * (290.0 - P.T0))
 
 
+def _unconfined_stretch(mu, T, dimension):
+    """The particles' unconfined equilibrium stretch from the swelling module's global minimisation:
+    plane strain in 2D (out-of-plane stretch held at lambda0), free in 3D."""
+    if dimension == 2:
+        return constrained_swelling(P, mu, T, (P.lambda0,)).stretch
+    return free_swelling(P, mu, T).stretch
+
+
+def _check_even_spread(path, T_target, dimension, samples):
+    """s = 0.9 f + 0.1 t at each of ``samples``, f = ln(lambda/lambda0) / ln(lambda_1/lambda0)."""
+    lam1 = _unconfined_stretch(0.0, T_target, dimension)
+    for s in samples:
+        mu, T = path(s)
+        f = np.log(_unconfined_stretch(mu, T, dimension) / P.lambda0) / np.log(lam1 / P.lambda0)
+        assert 0.9 * f + 0.1 * path.position(s) == pytest.approx(s, abs=2e-3)
+    return lam1
+
+
 @pytest.mark.parametrize("dimension", [2, 3])
 def test_swelling_path_spreads_the_log_swelling_evenly(dimension):
     """Along the swelling path, s = 0.9 f + 0.1 t, f = ln(lambda/lambda0) / ln(lambda_1/lambda0)
     of the unconfined equilibrium stretch (plane strain in 2D: out-of-plane stretch held at
     lambda0; free in 3D), computed here by the swelling module's global minimisation."""
     path = stimulus_path(P, 0.0, 275.0, "swelling", dimension=dimension)
-
-    def stretch(mu, T):
-        if dimension == 2:
-            return constrained_swelling(P, mu, T, (P.lambda0,)).stretch
-        return free_swelling(P, mu, T).stretch
-
-    lam1 = stretch(0.0, 275.0)
-    for s in (0.2, 0.5, 0.8):
-        mu, T = path(s)
-        f = np.log(stretch(mu, T) / P.lambda0) / np.log(lam1 / P.lambda0)
-        assert 0.9 * f + 0.1 * path.position(s) == pytest.approx(s, abs=2e-3)
+    _check_even_spread(path, 275.0, dimension, (0.2, 0.5, 0.8))
 
 
 @pytest.mark.parametrize("dimension", [2, 3])
@@ -55,19 +63,9 @@ def test_swelling_path_follows_a_gel_that_collapses(dimension):
     Away from the collapse, which falls between two knots, s = 0.9 f + 0.1 t holds as above, with f
     from the swelling module's equilibria (the only stable state at each of these stimuli)."""
     path = stimulus_path(P, 0.0, 310.0, "swelling", dimension=dimension)
-
-    def stretch(mu, T):
-        if dimension == 2:
-            return constrained_swelling(P, mu, T, (P.lambda0,)).stretch
-        return free_swelling(P, mu, T).stretch
-
-    lam1 = stretch(0.0, 310.0)
+    lam1 = _check_even_spread(path, 310.0, dimension, (0.1, 0.85, 0.95))
     if dimension == 2:
         assert lam1 == pytest.approx(0.9434, abs=1e-4)
-    for s in (0.1, 0.85, 0.95):
-        mu, T = path(s)
-        f = np.log(stretch(mu, T) / P.lambda0) / np.log(lam1 / P.lambda0)
-        assert 0.9 * f + 0.1 * path.position(s) == pytest.approx(s, abs=2e-3)
 
 
 def test_swelling_path_reaches_the_plane_strain_stretch():
