@@ -108,7 +108,7 @@ def test_area_matches_shoelace_of_a_finely_sampled_boundary():
 
 def test_outward_facets_reorients_reversed_facets():
     """Facets given inward (reversed) are turned outward from the cells they bound; a facet
-    that bounds no cell is refused."""
+    that bounds no cell, and a facet of no known type, are refused."""
     mesh = annulus(R_IN, R_OUT, 0.4)
     facets = np.vstack([mesh.facet_groups["inner"], mesh.facet_groups["outer"]])
     flipped = facets[:, [1, 0, 2]]
@@ -117,6 +117,8 @@ def test_outward_facets_reorients_reversed_facets():
     assert T.volume(mesh.points) == pytest.approx(mesh.cell_volumes(curved=True).sum(), rel=1e-12)
     with pytest.raises(ValueError, match="bounds 0 cells"):
         outward_facets(mesh.points, mesh.cells[:10], facets)
+    with pytest.raises(ValueError, match="no facet type with 4 nodes in 2D"):
+        PressureTerm(mesh.points, np.zeros((1, 4), dtype=int), 1.0)
 
 
 # ----------------------------------------------------------------------------------------------
