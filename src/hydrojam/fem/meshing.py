@@ -3,7 +3,7 @@
 :func:`gmsh_session` opens a deterministic, quiet gmsh session holding a fresh model;
 :func:`extract_mesh` turns the current meshed model into a :class:`~hydrojam.fem.mesh.Mesh`; the
 shape builders (:func:`rectangle`, :func:`disk`, :func:`box`, :func:`ball`,
-:func:`bonded_rectangles`, :func:`disks`) make small meshes for tests and verification.
+:func:`bonded_rectangles`, :func:`disks`, :func:`annulus`, ...) make small meshes for tests and verification.
 Lengths in mm. 2D shapes are drawn in gmsh's x-y plane and returned with two point columns,
 which the caller reads as x-z.
 """
@@ -393,6 +393,28 @@ def quarter_disk(radius: float, size: float, order: int = 2) -> Mesh:
         straight = set(sides["xsym"]) | set(sides["zsym"])
         arc = [t for _, t in curves if t not in straight]
         add_groups(2, {"body": body}, {"xsym": sides["xsym"], "zsym": sides["zsym"], "arc": arc})
+        return generate(2, order)
+
+
+def annulus(r_in: float, r_out: float, size: float, order: int = 2) -> Mesh:
+    """Annulus r_in <= r <= r_out (mm) about the origin in the x-z plane (a thick-walled
+    cylinder in plane strain). Each circle is drawn as four quarter arcs, so nodes lie on both
+    axes at (+-r, 0) and (0, +-r) for symmetry conditions. Cell group "body"; facet groups
+    "inner" and "outer"."""
+    if not 0 < r_in < r_out:
+        raise ValueError(f"annulus needs 0 < r_in < r_out, got r_in = {r_in}, r_out = {r_out}")
+    with gmsh_session():
+        set_mesh_size(size)
+        occ = gmsh.model.occ
+        centre = occ.addPoint(0.0, 0.0, 0.0)
+        loops, arcs = [], {}
+        for name, r in (("outer", r_out), ("inner", r_in)):
+            p = [occ.addPoint(x, y, 0.0) for x, y in ((r, 0.0), (0.0, r), (-r, 0.0), (0.0, -r))]
+            arcs[name] = [occ.addCircleArc(p[k], centre, p[(k + 1) % 4]) for k in range(4)]
+            loops.append(occ.addCurveLoop(arcs[name]))
+        s = occ.addPlaneSurface(loops)
+        occ.synchronize()
+        add_groups(2, {"body": [s]}, arcs)
         return generate(2, order)
 
 

@@ -31,6 +31,7 @@ too (minus their work), so a new physics is a new term, not a branch in the solv
 from __future__ import annotations
 
 import abc
+import itertools
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -257,3 +258,182 @@ def lumped_volumes(points: np.ndarray, cells: np.ndarray, cell_volumes: np.ndarr
     """Nodal share of the volume [mm^3, mm^2 in 2D]: each cell's volume split evenly over its nodes."""
     n_per = cells.shape[1]
     return np.bincount(cells.ravel(), weights=np.repeat(cell_volumes / n_per, n_per), minlength=len(points))
+
+
+# ----------------------------------------------------------------------------------------------
+# Pressure
+
+
+_FACET_TYPES = {(2, 2): "line2", (2, 3): "line3", (3, 3): "tri3", (3, 6): "tri6"}
+# node permutation that reverses a facet's orientation (meshio order: corners, then mid-edge
+# nodes of edges (0,1), (1,2), (2,0) for a triangle)
+_REVERSED = {"line2": [1, 0], "line3": [1, 0, 2], "tri3": [0, 2, 1], "tri6": [0, 2, 1, 5, 4, 3]}
+
+
+def _facet_type_of(d: int, nfn: int) -> str:
+    try:
+        return _FACET_TYPES[(d, nfn)]
+    except KeyError:
+        raise ValueError(f"no facet type with {nfn} nodes in {d}D (expected line2/line3 in 2D, tri3/tri6 in 3D)") from None
+
+
+def outward_facets(reference: np.ndarray, cells: np.ndarray, facets: np.ndarray) -> np.ndarray:
+    """The boundary ``facets`` (nf, nfn) of a body with ``cells`` (ne, nen), each reordered if
+    needed so that its normal (:func:`~hydrojam.fem.elements.facet_measure`'s convention) points
+    out of the cell it bounds, at reference positions (n, d) [mm]. ValueError for a facet that
+    bounds no cell or more than one (not on the body's boundary)."""
+    X = np.asarray(reference, dtype=float)
+    cells = np.asarray(cells, dtype=np.int64)
+    facets = np.array(facets, dtype=np.int64)
+    d = X.shape[1]
+    ftype = _facet_type_of(d, facets.shape[1])
+    nc = d  # corners of a facet
+    n_cell_corners = d + 1
+    # cells x facets count of shared corner nodes: a facet's cell holds all its corners
+    def incidence(rows):
+        return sp.csr_matrix((np.ones(rows.size), rows.ravel(), np.arange(0, rows.size + 1, rows.shape[1])),
+                             shape=(len(rows), len(X)))
+
+    fc = facets[:, :nc]
+    shared = (incidence(cells[:, :n_cell_corners]) @ incidence(fc).T).tocoo()
+    full = shared.data == nc
+    n_owners = np.bincount(shared.col[full], minlength=len(facets))
+    if np.any(n_owners != 1):
+        bad = int(np.flatnonzero(n_owners != 1)[0])
+        raise ValueError(f"facet {bad} bounds {n_owners[bad]} cells; boundary facets bound exactly one")
+    owners = np.empty(len(facets), dtype=np.int64)
+    owners[shared.col[full]] = shared.row[full]
+    centre = X[cells[owners, :n_cell_corners]].mean(axis=1)
+    corners = X[fc]
+    if d == 2:
+        t = corners[:, 1] - corners[:, 0]
+        n = np.column_stack([t[:, 1], -t[:, 0]])
+    else:
+        n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    inward = np.einsum("fi,fi->f", n, corners.mean(axis=1) - centre) < 0
+    facets[inward] = facets[inward][:, _REVERSED[ftype]]
+    return facets
+
+
+def _volume_tensor(ftype: str) -> np.ndarray:
+    """The symmetric tensor S of a facet type with V_f = (1/d) S x^d (x: the facet's flat nodal
+    coordinates), V_f the facet's share of the enclosed area (2D) or volume (3D).
+
+    2D: V_f = 1/2 int (x dz - z dx) = 1/2 sum_q w_q x(q) . R t(q) with t = dx/dxi and R the
+    rotation (t_x, t_z) -> (t_z, -t_x): bilinear in the nodal coordinates. 3D: V_f = 1/3 int
+    x . (dx/dxi1 x dx/dxi2) dxi, trilinear. The rules integrate the polynomials exactly."""
+    fe = ELEMENTS[ftype]
+    d, nfn = fe.dim + 1, fe.nen
+    if d == 2:
+        pts, w = _quadrature_for(fe, 2 * fe.order - 1)
+        N, dN = fe.shape(pts), fe.grad(pts)[:, :, 0]
+        M = np.einsum("q,qa,qb->ab", w, N, dN)
+        eps = np.array([[0.0, 1.0], [-1.0, 0.0]])
+        C = np.einsum("ab,ij->aibj", M, eps).reshape(nfn * d, nfn * d)
+        return 0.5 * (C + C.T)
+    pts, w = _quadrature_for(fe, 3 * fe.order - 2)
+    N, dN = fe.shape(pts), fe.grad(pts)
+    T = np.einsum("q,qa,qb,qc->abc", w, N, dN[:, :, 0], dN[:, :, 1])
+    eps = np.zeros((3, 3, 3))
+    eps[0, 1, 2] = eps[1, 2, 0] = eps[2, 0, 1] = 1.0
+    eps[0, 2, 1] = eps[2, 1, 0] = eps[1, 0, 2] = -1.0
+    K = np.einsum("abc,ijk->aibjck", T, eps).reshape((nfn * d,) * 3)
+    return sum(np.transpose(K, p) for p in itertools.permutations(range(3))) / 6.0
+
+
+def _quadrature_for(fe, degree: int):
+    """Points and weights of a rule exact to ``degree`` (at least 1) on the reference ``fe``."""
+    rule = fe.with_quadrature(max(int(degree), 1))
+    return rule.quad_points, rule.quad_weights
+
+
+class PressureTerm(EnergyTerm):
+    """A uniform pressure ``pressure`` [MPa] on boundary ``facets`` (nf, nfn) of a body; an
+    energy term named "pressure". Facets: line2/line3 in 2D (plane strain: energies per unit
+    depth [mJ/mm], forces [N/mm]), tri3/tri6 in 3D.
+
+    **Orientation.** The facets must point *out of the body* (normals as in
+    :func:`~hydrojam.fem.elements.facet_measure`; mesh facet groups on the boundary are, and
+    ``cells`` given here re-orients them with :func:`outward_facets`). Positive p then pushes
+    on the body, against the outward normal, on every facet: an external pressure compresses
+    the body, a pressure in a cavity inflates it. Negative p pulls (suction).
+
+    **Follower** (``follower=True``, the default): the pressure of a gas or fluid acts on the
+    *current* surface, with the force -p n da. It is conservative, E(x) = p V(x), where V is
+    the area (2D) or volume (3D) enclosed by the facets' current positions and the origin:
+    V = 1/d sum over facets of the integral of x . n da. V is a polynomial of the nodal
+    coordinates (quadratic in 2D, cubic in 3D), integrated exactly, so E, its gradient and its
+    Hessian (constant in 2D, linear in x in 3D, not symmetric-positive: ``project`` clips it per
+    facet) are exact. This E is the pressure's potential when the facets form a closed surface,
+    or an open one whose edge is held, or whose edge moves only within lines (2D) or planes
+    (3D) through the origin (symmetry planes of a model cut through the origin). Use it for a
+    vacuum or pneumatic pressure on the actuator.
+
+    **Dead** (``follower=False``): the traction -p N on the reference normals, fixed nodal forces
+    f_a = -p int N_a N dA (a :class:`LinearTerm`); right only while rotations are small.
+    """
+
+    name = "pressure"
+
+    def __init__(self, reference: np.ndarray, facets: np.ndarray, pressure: float, follower: bool = True,
+                 cells: np.ndarray | None = None, name: str = "pressure"):
+        self.reference = np.asarray(reference, dtype=float)
+        facets = np.asarray(facets, dtype=np.int64)
+        d = self.reference.shape[1]
+        self.facet_type = _facet_type_of(d, facets.shape[1])
+        if cells is not None:
+            facets = outward_facets(self.reference, cells, facets)
+        self.facets = facets
+        self.pressure = float(pressure)
+        self.follower = bool(follower)
+        self.name = name
+        self.dim = d
+        self._S = _volume_tensor(self.facet_type)
+        self._edofs = (facets[:, :, None] * d + np.arange(d)).reshape(len(facets), -1)
+        n = len(self._edofs[0]) if len(facets) else 0
+        self._rows = np.repeat(self._edofs, n, axis=1).ravel()
+        self._cols = np.tile(self._edofs, (1, n)).ravel()
+        self._dead = None
+        if not self.follower:
+            fe = ELEMENTS[self.facet_type]
+            N, dA, normal = facet_measure(fe, self.reference[facets])
+            f = np.zeros_like(self.reference)
+            np.add.at(f, facets.ravel(), -self.pressure * np.einsum("qa,fq,fqi->fai", N, dA, normal).reshape(-1, d))
+            self._dead = LinearTerm(f, self.reference, name)
+
+    def volume(self, x: np.ndarray) -> float:
+        """Area [mm^2] (2D) or volume [mm^3] (3D) enclosed by the facets at positions x (n, d)
+        [mm] and the origin; for a closed outward surface the body's own area or volume."""
+        xe = np.asarray(x, dtype=float).reshape(-1)[self._edofs]
+        if self.dim == 2:
+            return 0.5 * float(np.einsum("fp,pq,fq->", xe, self._S, xe))
+        return float(np.einsum("pqr,fp,fq,fr->", self._S, xe, xe, xe)) / 3.0
+
+    def energy(self, x):
+        if self._dead is not None:
+            return self._dead.energy(x)
+        return self.pressure * self.volume(x)
+
+    def gradient(self, x):
+        if self._dead is not None:
+            return self._dead.gradient(x)
+        xe = np.asarray(x, dtype=float).reshape(-1)[self._edofs]
+        if self.dim == 2:
+            ge = xe @ self._S
+        else:
+            ge = np.einsum("pqr,fq,fr->fp", self._S, xe, xe)
+        return np.bincount(self._edofs.ravel(), weights=self.pressure * ge.ravel(), minlength=np.size(x))
+
+    def hessian(self, x, project=False):
+        if self._dead is not None:
+            return self._dead.hessian(x)
+        n = np.size(x)
+        if self.dim == 2:
+            He = np.broadcast_to(self.pressure * self._S, (len(self._edofs),) + self._S.shape)
+        else:
+            xe = np.asarray(x, dtype=float).reshape(-1)[self._edofs]
+            He = 2.0 * self.pressure * np.einsum("pqr,fr->fpq", self._S, xe)
+        if project:
+            lam, Q = np.linalg.eigh(He)
+            He = np.einsum("fij,fj,fkj->fik", Q, np.maximum(lam, 0.0), Q)
+        return sp.csr_matrix(sp.coo_matrix((np.ravel(He), (self._rows, self._cols)), shape=(n, n)))
