@@ -1,10 +1,11 @@
-"""Atomic file output: a reader never sees a half-written result."""
+"""Atomic file output (a reader never sees a half-written result) with the user's permissions,
+and the one rule for non-finite values in outputs."""
 
 from __future__ import annotations
 
 import contextlib
-import math
 import errno
+import math
 import os
 import tempfile
 import tomllib

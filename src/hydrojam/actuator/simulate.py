@@ -17,6 +17,7 @@ import numpy as np
 from hydrojam._io import finite_or_none
 from hydrojam.actuator.metrics import RUN_FIELDS, branch_gap, time_to_fraction
 from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
+from hydrojam.actuator.stimulus import schedule_temperature
 from hydrojam.fem.linsolve import LinearSolver
 from hydrojam.fem.newton import NewtonOptions, minimize
 from hydrojam.fem.path import PathOptions, solve_path
@@ -146,8 +147,9 @@ def time_metrics(states: list[StepState], path) -> dict:
     for (t0, T0), (t1, T1) in zip(pts[:-1], pts[1:]):
         if T1 != T0 and t1 <= t[-1]:
             tt = np.linspace(t0, t1, 101)
-            branches[int(np.sign(T1 - T0))][0].append(np.interp(tt, pts[:, 0], pts[:, 1]))
-            branches[int(np.sign(T1 - T0))][1].append(np.interp(tt, t, theta))
+            temperatures, angles = branches[int(np.sign(T1 - T0))]
+            temperatures.append(schedule_temperature(pts, tt))
+            angles.append(np.interp(tt, t, theta))
     if branches[1][0] and branches[-1][0]:
         out["hysteresis_deg"] = branch_gap(np.concatenate(branches[1][0]), np.concatenate(branches[1][1]),
                                            np.concatenate(branches[-1][0]), np.concatenate(branches[-1][1]))

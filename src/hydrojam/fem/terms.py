@@ -106,6 +106,19 @@ class LinearTerm(EnergyTerm):
         return sp.csr_matrix((n, n))
 
 
+_FACET_TYPES = {(2, 2): "line2", (2, 3): "line3", (3, 3): "tri3", (3, 6): "tri6"}
+# node permutation that reverses a facet's orientation (meshio order: corners, then mid-edge
+# nodes of edges (0,1), (1,2), (2,0) for a triangle)
+_REVERSED = {"line2": [1, 0], "line3": [1, 0, 2], "tri3": [0, 2, 1], "tri6": [0, 2, 1, 5, 4, 3]}
+
+
+def _facet_type_of(d: int, nfn: int) -> str:
+    try:
+        return _FACET_TYPES[(d, nfn)]
+    except KeyError:
+        raise ValueError(f"no facet type with {nfn} nodes in {d}D (expected line2/line3 in 2D, tri3/tri6 in 3D)") from None
+
+
 def surface_load(reference: np.ndarray, facets: np.ndarray, traction, facet_type: str | None = None) -> LinearTerm:
     """Dead traction ``traction`` [MPa] (length d) on reference boundary facets (nf, nfn).
 
@@ -114,7 +127,7 @@ def surface_load(reference: np.ndarray, facets: np.ndarray, traction, facet_type
     facets = np.asarray(facets)
     d = reference.shape[1]
     if facet_type is None:
-        facet_type = {(2, 2): "line2", (2, 3): "line3", (3, 3): "tri3", (3, 6): "tri6"}[(d, facets.shape[1])]
+        facet_type = _facet_type_of(d, facets.shape[1])
     fe = ELEMENTS[facet_type]
     N, dA, _ = facet_measure(fe, reference[facets])
     t = np.asarray(traction, dtype=float)
@@ -262,19 +275,6 @@ def lumped_volumes(points: np.ndarray, cells: np.ndarray, cell_volumes: np.ndarr
 
 # ----------------------------------------------------------------------------------------------
 # Pressure
-
-
-_FACET_TYPES = {(2, 2): "line2", (2, 3): "line3", (3, 3): "tri3", (3, 6): "tri6"}
-# node permutation that reverses a facet's orientation (meshio order: corners, then mid-edge
-# nodes of edges (0,1), (1,2), (2,0) for a triangle)
-_REVERSED = {"line2": [1, 0], "line3": [1, 0, 2], "tri3": [0, 2, 1], "tri6": [0, 2, 1, 5, 4, 3]}
-
-
-def _facet_type_of(d: int, nfn: int) -> str:
-    try:
-        return _FACET_TYPES[(d, nfn)]
-    except KeyError:
-        raise ValueError(f"no facet type with {nfn} nodes in {d}D (expected line2/line3 in 2D, tri3/tri6 in 3D)") from None
 
 
 def outward_facets(reference: np.ndarray, cells: np.ndarray, facets: np.ndarray) -> np.ndarray:
