@@ -3,7 +3,8 @@
 :func:`gmsh_session` opens a deterministic, quiet gmsh session holding a fresh model;
 :func:`extract_mesh` turns the current meshed model into a :class:`~hydrojam.fem.mesh.Mesh`; the
 shape builders (:func:`rectangle`, :func:`disk`, :func:`box`, :func:`ball`,
-:func:`bonded_rectangles`, :func:`disks`, :func:`annulus`, ...) make small meshes for tests and verification.
+:func:`bonded_rectangles`, :func:`disks`, :func:`annulus`, :func:`shell_sector`, ...) make small
+meshes for tests and verification.
 Lengths in mm. 2D shapes are drawn in gmsh's x-y plane and returned with two point columns,
 which the caller reads as x-z.
 """
@@ -436,6 +437,41 @@ def ball_octant(radius: float, size: float, order: int = 2) -> Mesh:
         add_groups(3, {"body": body}, {"xsym": sides["xsym"], "ysym": sides["ysym"], "zsym": sides["zsym"],
                                          "sphere": sphere})
         return generate(3, order)
+
+
+def shell_sector(r_in: float, r_out: float, size: float, dim: int = 3, order: int = 2) -> Mesh:
+    """The part x, z >= 0 (2D: a quarter annulus) or x, y, z >= 0 (3D: an octant of a spherical
+    shell) of the shell r_in <= r <= r_out (mm) about the origin, for symmetric problems. Cell
+    group "body"; facet groups "xsym", "zsym" (and in 3D "ysym"): the symmetry planes, "inner"
+    (r = r_in) and "outer" (r = r_out). 2D is drawn in the x-z plane like :func:`quarter_disk`."""
+    if not 0 < r_in < r_out:
+        raise ValueError(f"shell_sector needs 0 < r_in < r_out, got r_in = {r_in}, r_out = {r_out}")
+    if dim not in (2, 3):
+        raise ValueError(f"dim must be 2 or 3, got {dim}")
+    with gmsh_session():
+        set_mesh_size(size)
+        occ = gmsh.model.occ
+        if dim == 2:
+            solid = occ.cut([(2, occ.addDisk(0.0, 0.0, 0.0, r_out, r_out))], [(2, occ.addDisk(0.0, 0.0, 0.0, r_in, r_in))])[0]
+            quadrant = [(2, occ.addRectangle(0.0, 0.0, 0.0, 2 * r_out, 2 * r_out))]
+            names = ("xsym", "_", "zsym", "__")
+        else:
+            solid = occ.cut([(3, occ.addSphere(0.0, 0.0, 0.0, r_out))], [(3, occ.addSphere(0.0, 0.0, 0.0, r_in))])[0]
+            quadrant = [(3, occ.addBox(0.0, 0.0, 0.0, 2 * r_out, 2 * r_out, 2 * r_out))]
+            names = ("xsym", "_", "ysym", "__", "zsym", "___")
+        out, _ = occ.intersect(solid, quadrant)
+        occ.synchronize()
+        body = [t for d, t in out if d == dim]
+        faces = gmsh.model.getBoundary([(dim, t) for t in body], oriented=False)
+        sides = _classify_sides(faces, (0.0,) * dim, (r_out,) * dim, names, 1e-6 * r_out)
+        planes = {n: sides[n] for n in names if not n.startswith("_")}
+        flat = set().union(*planes.values())
+        curved = [t for _, t in faces if t not in flat]
+        # the inner surface lies within r_in of the origin, the outer reaches out to r_out
+        inner = [t for t in curved if np.abs(bounding_box(dim - 1, t)[1]).max() < 0.5 * (r_in + r_out)]
+        outer = [t for t in curved if t not in inner]
+        add_groups(dim, {"body": body}, {**planes, "inner": inner, "outer": outer})
+        return generate(dim, order)
 
 
 def _refine_near(point, fine_size: float, fine_radius: float, size: float) -> None:
