@@ -306,7 +306,7 @@ def collision_edges(X, facets, dim):
 def check_against_reference(dim, fe, mesh_rel):
     """The FE answers against the 1D reference at the FE's own contact gap (the mean radius of the
     shell's inner surface less the core's, which IPC keeps in (0, dhat): a gap the continuum
-    reference does not have, worth 0.3-0.5 % of the radii at dhat = 0.08 mm). Tolerances from the
+    reference does not have, worth about 0.3 % of the radii at dhat = 0.08 mm). Tolerances from the
     mesh: for the radii the sag e^2 / (8 r) of the core's longest straight collision edge e
     (swollen by the free stretch) on the circle of radius r it stands for; for the pressure
     ``mesh_rel`` of it; for the stretch ``mesh_rel`` of the confinement's compression (the free
@@ -339,7 +339,10 @@ def test_gel_disk_swells_in_an_annulus_plane_strain():
 def test_gel_sphere_swells_in_a_spherical_shell_3d():
     """3D: a gel sphere (R = 8 mm) swelling at 275 K in a 2 mm neo-Hookean spherical shell with
     0.1 mm clearance (an octant, quadratic tetrahedra, 4 mm in the core, 2 mm in the shell: one
-    element through the wall) against the 1D reference, as in 2D."""
+    element through the wall) against the 1D reference, as in 2D. Measured errors: stretch -1.8e-5
+    (0.2 % of the compression), pressure +1.25e-3, radii -2.9e-4 and -6.1e-4 (relative); with a
+    2 mm core and a 1 mm wall (3727 nodes, 168 Newton iterations for 85) -3.8e-6, +7e-4, -1.6e-4 and
+    -2.5e-4."""
     fe = solve_core_shell(3, 4.0, 2.0)
     assert fe["states"] >= 5
     check_against_reference(3, fe, mesh_rel=0.01)
