@@ -239,7 +239,11 @@ def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_di
     surface = _log_volume(params, lam, dimension)
     shape = "sphere" if dimension == 3 else "cylinder"
     mean = mean_log_swelling(times, surface, radius, diffusivity, shape, initial=3.0 * np.log(lam0), cells=cells)
-    mus = effective_chemical_potential(params, np.exp(mean), Ts, dimension)
+    # never above the bath's: where the free kinetics hold more water than the bath allows at
+    # T(t) (shrinking on the collapsed branch), a gel at mu_eff > mu has no bounded swollen branch,
+    # and any point pushed across its barrier would swell without end; at the bath's mu the
+    # shrinking is driven by the bath and paced by the volume term (docs/kinetics.md)
+    mus = np.minimum(effective_chemical_potential(params, np.exp(mean), Ts, dimension), float(mu))
     step = np.abs(np.diff(mean))
     total = step.sum()
     even = np.full(step.size, 1.0 / step.size)
@@ -248,3 +252,87 @@ def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_di
     s /= s[-1]
     return TimedStimulusPath(s, times, mus, Ts, surface, mean, float(radius), float(diffusivity),
                              tuple(map(tuple, pts.tolist())))
+
+
+# ------------------------------------------------------------------------------------------------
+# Water content held within a time step (docs/kinetics.md "Particles in contact: water in time")
+
+#: shortest time step [in units of the particle's tau] the kinetic volume term assumes: a bound
+#: on its stiffness (K tau / dt), reached only by a step of no duration
+_MIN_STEP_TAU = 1e-6
+
+
+def osmotic_modulus(params: HydrogelParams, J: float, T: float, dimension: int = 2) -> float:
+    """The free gel's osmotic modulus K = (kT/nu) d mu_eff / d ln J [MPa] at volume ratio J (to the
+    dry network) and temperature T [K] (:func:`effective_chemical_potential`; plane strain in 2D):
+    the change of the bath's chemical potential, as a pressure, that changes the free gel's ln J
+    by one. Central difference in ln J (relative step 1e-5: error ~1e-10 of K)."""
+    h = 1e-5
+    up, down = effective_chemical_potential(params, J * np.exp(h), T, dimension), \
+        effective_chemical_potential(params, J * np.exp(-h), T, dimension)
+    return float(params.kT_over_nu * (up - down) / (2 * h))
+
+
+class KineticVolumes:
+    """The controller of a volume term (:class:`~hydrojam.fem.volume.LocalVolumeTerm`, point by
+    point, or :class:`~hydrojam.fem.volume.VolumeTerm`, per particle) on the particles of a timed
+    run: within a load step from time t0 to t (:meth:`set_time` gives t), each volume V (det F at
+    a point, or a particle's area) is drawn to
+
+        Vbar = V(t0) exp(<ln J>(t) - <ln J>(t0))   with stiffness   k = K tau / ((t - t0) V(t0)),
+
+    i.e. the gel changes its water content at the free particle's relative rate (<ln J>(t) of
+    ``path``, the free-swelling kinetics) and departs from that only by an implicit (backward
+    Euler) gradient flow of its volume with the dissipation K tau / 2 (d ln V / dt)^2: the
+    kinetics' tau for a gel of osmotic modulus ``modulus`` K [MPa] (Tanaka & Fillmore's friction
+    f = K / D, lumped). A free particle is at the centre at every step (its material at mu_eff(t)
+    holds exactly exp<ln J>(t)): it follows the kinetics exactly. As t - t0 grows the stiffness
+    vanishes: the end of a long hold is the drained equilibrium, the untimed answer.
+
+    The step's start is recognised from the volumes passed at each ``begin_step``: volumes that
+    changed since the previous call mean that the previous attempt (at its time) was accepted;
+    unchanged volumes, a retry of the same step with a smaller increment; a call at the same
+    time as the previous one (the release of the stabilisation at s = 1), the same step again.
+    """
+
+    def __init__(self, path: TimedStimulusPath, modulus: float):
+        self.path = path
+        self.modulus = float(modulus)
+        self._t = 0.0
+        self._start: tuple[float, np.ndarray] | None = None
+        self._last: tuple[float, np.ndarray] | None = None
+
+    def set_time(self, t: float) -> None:
+        """The time [s] the next load step ends at."""
+        self._t = float(t)
+
+    def mean_log_swelling(self, t: float) -> float:
+        """The free particle's <ln J> at time t [s] (linear between the path's samples)."""
+        return float(np.interp(t, self.path.times, self.path.mean))
+
+    def __call__(self, volumes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Targets and stiffnesses for a step from the ``volumes`` at its start (any shape: det F
+        [-] per point, giving k [MPa]; or areas [mm^2] per particle, giving k [MPa/mm^2])."""
+        v = np.array(volumes, dtype=float)
+        if self._start is None:
+            self._start = (self.path.time(0.0), v)
+        elif self._last is not None and not np.array_equal(v, self._last[1]) and self._t > self._last[0]:
+            self._start = (self._last[0], v)
+        self._last = (self._t, v)
+        t0, v0 = self._start
+        tau = self.path.time_constant_s
+        dt = max(self._t - t0, _MIN_STEP_TAU * tau)
+        targets = v0 * np.exp(self.mean_log_swelling(self._t) - self.mean_log_swelling(t0))
+        return targets, self.modulus * tau / (dt * v0)
+
+
+def kinetic_modulus(params: HydrogelParams, path: TimedStimulusPath, dimension: int = 2) -> float:
+    """K [MPa] of :class:`KineticVolumes`: the free gel's osmotic modulus in the state that sets
+    the kinetics' radius (the largest free swelling of the schedule), where D is meant to hold,
+    or, if larger, the largest negative osmotic modulus along the free kinetics (exp<ln J>(t),
+    T(t)): where the free gel is unstable (inside the spinodal, heated through the transition) a
+    particle's departure from the kinetics then grows no faster than e^(t/tau)."""
+    k = int(np.argmax(path.surface))
+    swollen = osmotic_modulus(params, float(np.exp(path.surface[k])), float(path.temperatures[k]), dimension)
+    along = [osmotic_modulus(params, float(np.exp(m)), float(T), dimension) for m, T in zip(path.mean, path.temperatures)]
+    return max(swollen, -min(along))
