@@ -446,3 +446,21 @@ def test_a_particle_in_a_rigid_box_swells_with_the_kinetics_and_ends_drained():
     res = minimize([solid.with_materials({"gel": gel.at(0.0, 275.0)}), wall], x, free, force_scale)
     assert res.converged
     assert np.max(np.abs(res.x - x)) < 1e-6 and wall.force(res.x) == pytest.approx(f[-1], rel=1e-6)
+
+
+def test_the_bead_size_study_scales_the_design_with_its_beads():
+    """examples/bead_size_study.toml (docs/kinetics.md "Bead size"): every point is the default
+    design with walls, strain-limit layer, clearance and mesh in the same ratio to the bead
+    diameter (geometrically similar), on the same schedule."""
+    from pathlib import Path
+
+    from hydrojam.study.spec import load_study
+
+    study = load_study(Path(__file__).parents[2] / "examples" / "bead_size_study.toml")
+    points = study.points()
+    assert sorted(p.design.particle_diameter for p in points) == [2.0, 4.0, 8.0, 16.0]
+    for p in points:
+        d = p.design
+        ratios = (d.side_wall_thickness, d.end_wall_thickness, d.strain_limit_thickness, d.clearance, d.mesh.size)
+        assert np.array(ratios) / d.particle_diameter == pytest.approx([1 / 8, 1 / 4, 1 / 2, 1 / 160, 1 / 4], rel=1e-12)
+        assert d.stimulus.schedule == ((0.0, 300.0), (60.0, 275.0), (2e7, 275.0)) and d.particle_layers == 5

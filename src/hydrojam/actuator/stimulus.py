@@ -13,10 +13,13 @@ changes: the states at s = 0 and s = 1, and the path in the (mu, T) plane, are t
 
 A time-resolved stimulus (``stimulus.schedule``, docs/actuator.md "Actuation in time") gives a
 :class:`TimedStimulusPath` instead (:func:`timed_stimulus_path`): each particle swells by its own
-free-swelling kinetics (:func:`hydrojam.materials.kinetics.mean_log_swelling`; the confinement's
-effect on the kinetics is neglected), and the path runs through the stimuli (mu_eff(t), T(t)) at
-which free swelling holds exactly the particle's mean swelling at time t. Every path answers
-``path(s) -> (mu, T)`` and ``path.time(s)`` (None on an untimed path).
+free-swelling kinetics (:func:`hydrojam.materials.kinetics.mean_log_swelling`), and the path runs
+through the stimuli (mu_eff(t), T(t)) at which free swelling holds exactly the particle's mean
+swelling at time t (never above the bath's mu). Within each load step the particles keep their
+water near what those kinetics allow (:class:`KineticVolumes`, the controller of the model's
+"volume" term; docs/kinetics.md "Particles in contact"), so a confined particle departs from
+the free kinetics only on their time scale. Every path answers ``path(s) -> (mu, T)`` and
+``path.time(s)`` (None on an untimed path).
 """
 
 from __future__ import annotations
@@ -117,8 +120,12 @@ _SEGMENT_SAMPLES = 32
 _LOG_SAMPLES = 160
 #: the log-spaced samples after a schedule point start at this fraction of the time constant
 _LOG_FIRST = 1e-3
-#: share of the load parameter spread evenly over the samples (the rest over the swelling)
-_EVEN_SHARE = 0.1
+#: share of the load parameter spread evenly over the logarithmic time since each schedule point,
+#: ln(1 + (t - t_point) / (_TIME_SCALE tau)) (the rest over the swelling): the particles' water
+#: relaxes on the time scale tau within each step (the "volume" term, an implicit flow), so a
+#: long hold needs steps that grow with the time since its start, not one step to its end
+_TIME_SHARE = 0.5
+_TIME_SCALE = 0.3
 
 
 def effective_chemical_potential(params: HydrogelParams, J, T, dimension: int = 2) -> np.ndarray:
@@ -222,9 +229,11 @@ def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_di
     (particle_diameter [mm] / 2) x the largest free stretch over lambda0 (Tanaka & Fillmore take
     the swollen radius; the largest is the slowest, a conservative time). Its mean ln J at each
     sampled time is held by free swelling at (mu_eff(t), T(t))
-    (:func:`effective_chemical_potential`); the load parameter is spread over the samples as the
-    "swelling" path does: 90% evenly over the (total variation of the) mean log swelling, 10%
-    evenly over the samples, so every load step gets a similar share of the change.
+    (:func:`effective_chemical_potential`, at most ``mu``); the load parameter is spread over the
+    samples half evenly over the (total variation of the) mean log swelling, as the "swelling"
+    path does, so every load step gets a similar share of the change, and half evenly over the
+    logarithmic time since each schedule point (in units of 0.3 tau), so that long holds get
+    steps growing with the time since their start (the particles' water relaxes within them).
     """
     pts = np.asarray(schedule, dtype=float)
     lam0 = params.lambda0
@@ -246,8 +255,13 @@ def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_di
     mus = np.minimum(effective_chemical_potential(params, np.exp(mean), Ts, dimension), float(mu))
     step = np.abs(np.diff(mean))
     total = step.sum()
-    even = np.full(step.size, 1.0 / step.size)
-    weight = even if total < 1e-9 else (1.0 - _EVEN_SHARE) * step / total + _EVEN_SHARE * even
+    # time since the start of the segment a sample ends (a schedule point ends the one before it)
+    since = times - pts[np.maximum(np.searchsorted(pts[:, 0], times, side="left") - 1, 0), 0]
+    log_time = np.log1p(since / (_TIME_SCALE * time_constant(radius, diffusivity)))
+    # from one sample to the next: the log time grows within a segment; at a schedule point it restarts
+    dlog = np.where(since[1:] > since[:-1], log_time[1:] - log_time[:-1], log_time[1:])
+    even = dlog / dlog.sum()
+    weight = even if total < 1e-9 else (1.0 - _TIME_SHARE) * step / total + _TIME_SHARE * even
     s = np.concatenate(([0.0], np.cumsum(weight)))
     s /= s[-1]
     return TimedStimulusPath(s, times, mus, Ts, surface, mean, float(radius), float(diffusivity),
