@@ -30,7 +30,15 @@ from hydrojam.actuator.metrics import (
     tip_displacement,
 )
 from hydrojam.fem.solver import Problem, fixed
-from hydrojam.actuator.stimulus import StimulusPath, TimedStimulusPath, stimulus_path, timed_stimulus_path
+from hydrojam.actuator.stimulus import (
+    KineticVolumes,
+    StimulusPath,
+    TimedStimulusPath,
+    kinetic_modulus,
+    stimulus_path,
+    timed_stimulus_path,
+)
+from hydrojam.fem.volume import LocalVolumeTerm
 
 DHAT_PER_CLEARANCE = 0.8  # barrier activation distance / initial clearance
 KAPPA_PER_MEMBRANE_MODULUS = 1.0  # barrier stiffness / membrane shear modulus (see build_model)
@@ -91,15 +99,32 @@ class ActuatorModel:
 
     def problem(self, extra_terms: tuple = ()) -> Problem:
         """The load-path problem, clamped top: the terms "elastic" (the solid at the stimulus of
-        s) and "contact", plus ``extra_terms`` (e.g. "stabilisation"), in that order."""
+        s), "contact" and, on a timed path only, "volume" (:meth:`kinetic_volume_term`: each
+        particle's water content within a time step), plus ``extra_terms`` (e.g.
+        "stabilisation"), in that order. Every call makes a fresh "volume" term."""
         solid, contact = self.solid, self.contact
+        volume = self.kinetic_volume_term() if self.path.timed else None
 
         def terms(s: float):
-            return [solid.with_materials(self.materials_at(s)), contact, *extra_terms]
+            if volume is None:
+                return [solid.with_materials(self.materials_at(s)), contact, *extra_terms]
+            volume.controller.set_time(self.path.time(s))
+            return [solid.with_materials(self.materials_at(s)), contact, volume, *extra_terms]
 
         G = self.membrane.shear_modulus_ref
         return Problem(self.mesh.points, terms, [fixed(self.clamp_nodes, 2)],
                        force_scale=G * self.design.particle_diameter)
+
+    def kinetic_volume_term(self) -> LocalVolumeTerm:
+        """On a timed path: the term "volume" holding the particles' water content (their volume,
+        the constituents being incompressible) within a load step, point by point, near what the
+        kinetics allow (:class:`~hydrojam.actuator.stimulus.KineticVolumes`, docs/kinetics.md)."""
+        if not self.path.timed:
+            raise ValueError("the kinetic volume term needs a time-resolved stimulus (stimulus.schedule)")
+        cells = self.mesh.cells[np.concatenate(self.particle_cells)]
+        el = element_for_meshio_type(self.mesh.cell_type)
+        modulus = kinetic_modulus(self.design.hydrogel, self.path, self.design.dimension)
+        return LocalVolumeTerm(self.mesh.points, cells, el, KineticVolumes(self.path, modulus))
 
 
 def _centreline(mesh: Mesh, design: Design) -> np.ndarray:

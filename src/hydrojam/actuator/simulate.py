@@ -34,9 +34,11 @@ ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=3
                             newton=NewtonOptions(max_iter=200))
 
 
-#: load-path settings with a time-resolved stimulus: steps of at most 0.025 in s (40 or more
-#: states), so that theta(t) is resolved (s is spread over the particles' swelling in time)
-TIMED_PATH = dataclasses.replace(ACTUATOR_PATH, ds_max=0.025)
+#: load-path settings with a time-resolved stimulus: steps of at most 0.025 in s from the first
+#: (40 or more states), so that theta(t) is resolved (s is spread over the particles' swelling
+#: and the log time) and no step is long against the particles' tau (their water relaxes within
+#: a step: the "volume" term is an implicit flow, first order in the step)
+TIMED_PATH = dataclasses.replace(ACTUATOR_PATH, ds0=0.025, ds_max=0.025)
 
 
 @dataclass(frozen=True)

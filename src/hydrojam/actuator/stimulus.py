@@ -13,10 +13,13 @@ changes: the states at s = 0 and s = 1, and the path in the (mu, T) plane, are t
 
 A time-resolved stimulus (``stimulus.schedule``, docs/actuator.md "Actuation in time") gives a
 :class:`TimedStimulusPath` instead (:func:`timed_stimulus_path`): each particle swells by its own
-free-swelling kinetics (:func:`hydrojam.materials.kinetics.mean_log_swelling`; the confinement's
-effect on the kinetics is neglected), and the path runs through the stimuli (mu_eff(t), T(t)) at
-which free swelling holds exactly the particle's mean swelling at time t. Every path answers
-``path(s) -> (mu, T)`` and ``path.time(s)`` (None on an untimed path).
+free-swelling kinetics (:func:`hydrojam.materials.kinetics.mean_log_swelling`), and the path runs
+through the stimuli (mu_eff(t), T(t)) at which free swelling holds exactly the particle's mean
+swelling at time t (never above the bath's mu). Within each load step the particles keep their
+water near what those kinetics allow (:class:`KineticVolumes`, the controller of the model's
+"volume" term; docs/kinetics.md "Particles in contact"), so a confined particle departs from
+the free kinetics only on their time scale. Every path answers ``path(s) -> (mu, T)`` and
+``path.time(s)`` (None on an untimed path).
 """
 
 from __future__ import annotations
@@ -117,8 +120,12 @@ _SEGMENT_SAMPLES = 32
 _LOG_SAMPLES = 160
 #: the log-spaced samples after a schedule point start at this fraction of the time constant
 _LOG_FIRST = 1e-3
-#: share of the load parameter spread evenly over the samples (the rest over the swelling)
-_EVEN_SHARE = 0.1
+#: share of the load parameter spread evenly over the logarithmic time since each schedule point,
+#: ln(1 + (t - t_point) / (_TIME_SCALE tau)) (the rest over the swelling): the particles' water
+#: relaxes on the time scale tau within each step (the "volume" term, an implicit flow), so a
+#: long hold needs steps that grow with the time since its start, not one step to its end
+_TIME_SHARE = 0.5
+_TIME_SCALE = 0.3
 
 
 def effective_chemical_potential(params: HydrogelParams, J, T, dimension: int = 2) -> np.ndarray:
@@ -222,9 +229,11 @@ def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_di
     (particle_diameter [mm] / 2) x the largest free stretch over lambda0 (Tanaka & Fillmore take
     the swollen radius; the largest is the slowest, a conservative time). Its mean ln J at each
     sampled time is held by free swelling at (mu_eff(t), T(t))
-    (:func:`effective_chemical_potential`); the load parameter is spread over the samples as the
-    "swelling" path does: 90% evenly over the (total variation of the) mean log swelling, 10%
-    evenly over the samples, so every load step gets a similar share of the change.
+    (:func:`effective_chemical_potential`, at most ``mu``); the load parameter is spread over the
+    samples half evenly over the (total variation of the) mean log swelling, as the "swelling"
+    path does, so every load step gets a similar share of the change, and half evenly over the
+    logarithmic time since each schedule point (in units of 0.3 tau), so that long holds get
+    steps growing with the time since their start (the particles' water relaxes within them).
     """
     pts = np.asarray(schedule, dtype=float)
     lam0 = params.lambda0
@@ -239,12 +248,105 @@ def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_di
     surface = _log_volume(params, lam, dimension)
     shape = "sphere" if dimension == 3 else "cylinder"
     mean = mean_log_swelling(times, surface, radius, diffusivity, shape, initial=3.0 * np.log(lam0), cells=cells)
-    mus = effective_chemical_potential(params, np.exp(mean), Ts, dimension)
+    # never above the bath's: where the free kinetics hold more water than the bath allows at
+    # T(t) (shrinking on the collapsed branch), a gel at mu_eff > mu has no bounded swollen branch,
+    # and any point pushed across its barrier would swell without end; at the bath's mu the
+    # shrinking is driven by the bath and paced by the volume term (docs/kinetics.md)
+    mus = np.minimum(effective_chemical_potential(params, np.exp(mean), Ts, dimension), float(mu))
     step = np.abs(np.diff(mean))
     total = step.sum()
-    even = np.full(step.size, 1.0 / step.size)
-    weight = even if total < 1e-9 else (1.0 - _EVEN_SHARE) * step / total + _EVEN_SHARE * even
+    # time since the start of the segment a sample ends (a schedule point ends the one before it)
+    since = times - pts[np.maximum(np.searchsorted(pts[:, 0], times, side="left") - 1, 0), 0]
+    log_time = np.log1p(since / (_TIME_SCALE * time_constant(radius, diffusivity)))
+    # from one sample to the next: the log time grows within a segment; at a schedule point it restarts
+    dlog = np.where(since[1:] > since[:-1], log_time[1:] - log_time[:-1], log_time[1:])
+    even = dlog / dlog.sum()
+    weight = even if total < 1e-9 else (1.0 - _TIME_SHARE) * step / total + _TIME_SHARE * even
     s = np.concatenate(([0.0], np.cumsum(weight)))
     s /= s[-1]
     return TimedStimulusPath(s, times, mus, Ts, surface, mean, float(radius), float(diffusivity),
                              tuple(map(tuple, pts.tolist())))
+
+
+# ------------------------------------------------------------------------------------------------
+# Water content held within a time step (docs/kinetics.md "Particles in contact: water in time")
+
+#: shortest time step [in units of the particle's tau] the kinetic volume term assumes: a bound
+#: on its stiffness (K tau / dt), reached only by a step of no duration
+_MIN_STEP_TAU = 1e-6
+
+
+def osmotic_modulus(params: HydrogelParams, J: float, T: float, dimension: int = 2) -> float:
+    """The free gel's osmotic modulus K = (kT/nu) d mu_eff / d ln J [MPa] at volume ratio J (to the
+    dry network) and temperature T [K] (:func:`effective_chemical_potential`; plane strain in 2D):
+    the change of the bath's chemical potential, as a pressure, that changes the free gel's ln J
+    by one. Central difference in ln J (relative step 1e-5: error ~1e-10 of K)."""
+    h = 1e-5
+    up, down = effective_chemical_potential(params, J * np.exp(h), T, dimension), \
+        effective_chemical_potential(params, J * np.exp(-h), T, dimension)
+    return float(params.kT_over_nu * (up - down) / (2 * h))
+
+
+class KineticVolumes:
+    """The controller of a volume term (:class:`~hydrojam.fem.volume.LocalVolumeTerm`, point by
+    point, or :class:`~hydrojam.fem.volume.VolumeTerm`, per particle) on the particles of a timed
+    run: within a load step from time t0 to t (:meth:`set_time` gives t), each volume V (det F at
+    a point, or a particle's area) is drawn to
+
+        Vbar = V(t0) exp(<ln J>(t) - <ln J>(t0))   with stiffness   k = K tau / ((t - t0) V(t0)),
+
+    i.e. the gel changes its water content at the free particle's relative rate (<ln J>(t) of
+    ``path``, the free-swelling kinetics) and departs from that only by an implicit (backward
+    Euler) gradient flow of its volume with the dissipation K tau / 2 (d ln V / dt)^2: the
+    kinetics' tau for a gel of osmotic modulus ``modulus`` K [MPa] (Tanaka & Fillmore's friction
+    f = K / D, lumped). A free particle is at the centre at every step (its material at mu_eff(t)
+    holds exactly exp<ln J>(t)): it follows the kinetics exactly. As t - t0 grows the stiffness
+    vanishes: the end of a long hold is the drained equilibrium, the untimed answer.
+
+    The step's start is recognised from the volumes passed at each ``begin_step``: volumes that
+    changed since the previous call mean that the previous attempt (at its time) was accepted;
+    unchanged volumes, a retry of the same step with a smaller increment; a call at the same
+    time as the previous one (the release of the stabilisation at s = 1), the same step again.
+    """
+
+    def __init__(self, path: TimedStimulusPath, modulus: float):
+        self.path = path
+        self.modulus = float(modulus)
+        self._t = 0.0
+        self._start: tuple[float, np.ndarray] | None = None
+        self._last: tuple[float, np.ndarray] | None = None
+
+    def set_time(self, t: float) -> None:
+        """The time [s] the next load step ends at."""
+        self._t = float(t)
+
+    def mean_log_swelling(self, t: float) -> float:
+        """The free particle's <ln J> at time t [s] (linear between the path's samples)."""
+        return float(np.interp(t, self.path.times, self.path.mean))
+
+    def __call__(self, volumes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Targets and stiffnesses for a step from the ``volumes`` at its start (any shape: det F
+        [-] per point, giving k [MPa]; or areas [mm^2] per particle, giving k [MPa/mm^2])."""
+        v = np.array(volumes, dtype=float)
+        if self._start is None:
+            self._start = (self.path.time(0.0), v)
+        elif self._last is not None and not np.array_equal(v, self._last[1]) and self._t > self._last[0]:
+            self._start = (self._last[0], v)
+        self._last = (self._t, v)
+        t0, v0 = self._start
+        tau = self.path.time_constant_s
+        dt = max(self._t - t0, _MIN_STEP_TAU * tau)
+        targets = v0 * np.exp(self.mean_log_swelling(self._t) - self.mean_log_swelling(t0))
+        return targets, self.modulus * tau / (dt * v0)
+
+
+def kinetic_modulus(params: HydrogelParams, path: TimedStimulusPath, dimension: int = 2) -> float:
+    """K [MPa] of :class:`KineticVolumes`: the free gel's osmotic modulus in the state that sets
+    the kinetics' radius (the largest free swelling of the schedule), where D is meant to hold,
+    or, if larger, the largest negative osmotic modulus along the free kinetics (exp<ln J>(t),
+    T(t)): where the free gel is unstable (inside the spinodal, heated through the transition) a
+    particle's departure from the kinetics then grows no faster than e^(t/tau)."""
+    k = int(np.argmax(path.surface))
+    swollen = osmotic_modulus(params, float(np.exp(path.surface[k])), float(path.temperatures[k]), dimension)
+    along = [osmotic_modulus(params, float(np.exp(m)), float(T), dimension) for m, T in zip(path.mean, path.temperatures)]
+    return max(swollen, -min(along))
