@@ -102,3 +102,18 @@ def test_a_stimulus_next_to_the_as_prepared_state_takes_few_iterations():
     assert res.converged and res.metrics["stabilisation_released"], res.message
     assert res.metrics["contacts_per_particle"] == 0
     assert res.timings["newton_iterations"] <= 100, res.timings["newton_iterations"]
+
+
+def test_the_run_reports_where_the_path_lost_stability():
+    """history states carry the physical Hessian's negative-eigenvalue count (None only at s = 0),
+    and buckled_at_s is the s of the first state with one (None if none): read back from the
+    states here."""
+    res = simulate(_model("particle_layers=1", "mesh.size=4"))
+    assert res.converged, res.message
+    assert res.states[0].negative_eigenvalues is None
+    counts = [st.negative_eigenvalues for st in res.states[1:]]
+    assert all(isinstance(c, int) and c >= 0 for c in counts)
+    first = next((st.s for st in res.states if st.negative_eigenvalues), None)
+    m = res.metrics
+    assert m["buckled_at_s"] == first
+    assert m["unstable_states"] == sum(1 for c in counts if c)
