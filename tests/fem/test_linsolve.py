@@ -157,7 +157,7 @@ def test_later_handles_reuse_the_mkl_found_first_and_leave_the_environment_alone
 
 
 @pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
-@pytest.mark.parametrize("settings", [{}, {2: 0}, {8: 0}, {2: 0, 8: 0}])
+@pytest.mark.parametrize("settings", [{}, {2: 0}, {8: 0}, {2: 0, 8: 0}, {2: 0, 34: 1}])
 def test_pardiso_settings_change_round_off_only(monkeypatch, settings):
     """MKL's defaults, minimum-degree ordering and refinement only after perturbed pivots: each
     against numpy's dense solve, to 100 x eps x cond(K) relative to |x|."""
