@@ -277,6 +277,8 @@ def negative_curvature(
     solver does not report the inertia (SciPy) or the factorisation fails."""
     xs = np.asarray(x, dtype=float)
     fidx = np.flatnonzero(free)
+    if fidx.size == 0:
+        return 0
     Hff = sp.csr_matrix(sum(t.hessian(xs, False) for t in terms))[fidx][:, fidx]
     hdiag = abs(Hff.diagonal())
     K = Hff + sp.diags(np.full(len(fidx), options.regularisation * hdiag.mean()), format="csr")

@@ -135,7 +135,9 @@ def solve_path(
     On failure below the minimum increment, returns with the last converged state and a message
     saying where and why. ``callback(s, x, record)`` runs after
     every accepted step, ``on_attempt(s_try, ds, newton_result)`` after every attempt (progress).
-    Every term's ``begin_step`` runs at the start of every step.
+    Every term's ``begin_step`` runs at the start of every step. With
+    ``options.stability_check`` every accepted state's physical Hessian is tested for negative
+    eigenvalues (:attr:`StepRecord.negative_eigenvalues`, :attr:`PathResult.unstable_at_s`).
     """
     solver = LinearSolver(options.newton.linear_solver)
     # the stability check's own solver: its matrices never touch the Newton solver's pattern
