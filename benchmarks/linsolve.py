@@ -43,7 +43,8 @@ VARIANTS = {
     "MKL defaults": {},
     "min. degree": {2: 0},
     "no forced refinement": {8: 0},
-    "both (hydrojam)": {2: 0, 8: 0},
+    "min. degree, no forced refinement": {2: 0, 8: 0},
+    "min. degree + CNR (hydrojam)": {2: 0, 34: 1},
 }
 
 

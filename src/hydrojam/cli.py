@@ -267,6 +267,9 @@ def run_design(
     metrics = writer.finish(result)
     if not quiet:
         console.print(_run_summary(f"hydrojam run: {design_file.name} -> {out}", metrics))
+        if metrics.get("buckled_at_s") is not None:  # docs/solver.md, "Where the path branched"
+            console.print(f"buckled at s = {metrics['buckled_at_s']:.3g}: the path passed an instability there "
+                          f"({metrics['unstable_states']} unstable states); the answer is path dependent from there")
     if not result.converged:
         console.print(f"[red]hydrojam: the solver stopped early: {result.message}[/red]")
         raise typer.Exit(code=1)

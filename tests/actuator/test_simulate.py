@@ -102,3 +102,62 @@ def test_a_stimulus_next_to_the_as_prepared_state_takes_few_iterations():
     assert res.converged and res.metrics["stabilisation_released"], res.message
     assert res.metrics["contacts_per_particle"] == 0
     assert res.timings["newton_iterations"] <= 100, res.timings["newton_iterations"]
+
+
+_THREADED_RUN = """
+import json
+from hydrojam.actuator.design import apply_overrides, default_design
+from hydrojam.actuator.model import build_model
+from hydrojam.actuator.simulate import simulate
+res = simulate(build_model(apply_overrides(default_design(), ["particle_layers=1", "mesh.size=4"])))
+m = res.metrics
+print(json.dumps([repr(m["bending_angle_deg"]), repr(m["tip_dx_mm"]), m["newton_iterations"], m["converged"]]))
+"""
+
+
+@pytest.mark.slow
+def test_a_run_is_bit_identical_on_one_and_two_solver_threads():
+    """Determinism across thread settings (docs/solver.md, "Determinism"): the one-layer design
+    run in fresh interpreters (MKL reads its thread count when the solver is built) with
+    HYDROJAM_SOLVER_THREADS = 1 and 2 gives the same angle, tip and iteration count to the last
+    bit. The tolerance is zero on purpose: PARDISO runs in MKL's conditional numerical
+    reproducibility mode (iparm(34)), which makes its round-off independent of the thread count;
+    without it the two runs differed in the first decimal (46.34 vs 45.94 deg on the 2 mm mesh),
+    as the path amplifies any round-off."""
+    import os
+    import subprocess
+    import sys
+
+    out = []
+    for threads in ("1", "2"):
+        env = {**os.environ, "HYDROJAM_SOLVER_THREADS": threads}
+        run = subprocess.run([sys.executable, "-c", _THREADED_RUN], env=env, capture_output=True, text=True,
+                             check=True)
+        out.append(json.loads(run.stdout.strip().splitlines()[-1]))
+    assert out[0][3] and out[0] == out[1], out
+
+
+def test_the_run_reports_where_the_path_lost_stability():
+    """history states carry the physical Hessian's negative-eigenvalue count (None only at s = 0),
+    and buckled_at_s is the s of the first state with one (None if none): read back from the
+    states here. The check runs on a solver of its own, so switching it off leaves the path
+    bit for bit as it was (the same final positions and iterations)."""
+    import dataclasses
+
+    from hydrojam.actuator.simulate import ACTUATOR_PATH
+
+    model = _model("particle_layers=1", "mesh.size=4")
+    res = simulate(model)
+    unchecked = simulate(model, options=dataclasses.replace(ACTUATOR_PATH, stability_check=False))
+    assert np.array_equal(res.final.x, unchecked.final.x)
+    assert res.newton_iterations == unchecked.newton_iterations
+    assert all(st.negative_eigenvalues is None for st in unchecked.states)
+    assert unchecked.metrics["buckled_at_s"] is None and unchecked.metrics["unstable_states"] == 0
+    assert res.converged, res.message
+    assert res.states[0].negative_eigenvalues is None
+    counts = [st.negative_eigenvalues for st in res.states[1:]]
+    assert all(isinstance(c, int) and c >= 0 for c in counts)
+    first = next((st.s for st in res.states if st.negative_eigenvalues), None)
+    m = res.metrics
+    assert m["buckled_at_s"] == first
+    assert m["unstable_states"] == sum(1 for c in counts if c)

@@ -157,7 +157,7 @@ def test_later_handles_reuse_the_mkl_found_first_and_leave_the_environment_alone
 
 
 @pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
-@pytest.mark.parametrize("settings", [{}, {2: 0}, {8: 0}, {2: 0, 8: 0}])
+@pytest.mark.parametrize("settings", [{}, {2: 0}, {8: 0}, {2: 0, 8: 0}, {2: 0, 34: 1}])
 def test_pardiso_settings_change_round_off_only(monkeypatch, settings):
     """MKL's defaults, minimum-degree ordering and refinement only after perturbed pivots: each
     against numpy's dense solve, to 100 x eps x cond(K) relative to |x|."""
@@ -172,3 +172,22 @@ def test_pardiso_settings_change_round_off_only(monkeypatch, settings):
         assert np.linalg.norm(x - x_ref) <= 100 * np.finfo(float).eps * np.linalg.cond(Kd) * np.linalg.norm(x_ref)
     for i, value in settings.items():
         assert solver._pardiso._ps.iparm[i - 1] == value
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO (MKL) not installed")
+@pytest.mark.parametrize("negative", [0, 1, 7])
+def test_pardiso_reports_the_inertia_of_a_symmetric_indefinite_matrix(negative):
+    """Sylvester's law of inertia: K = Q diag(lam) Q^T (Q a random orthogonal matrix, a dense
+    pattern) has exactly as many negative eigenvalues as lam; every |lam| >= 0.1, far from a
+    zero pivot. The scipy backend does not report it (None)."""
+    rng = np.random.default_rng(negative)
+    n = 40
+    lam = rng.uniform(0.1, 2.0, n) * np.where(np.arange(n) < negative, -1.0, 1.0)
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    K = sp.csr_matrix((Q * lam) @ Q.T)
+    solver = LinearSolver("pardiso")
+    solver.solve(K, np.ones(n))
+    assert solver.negative_eigenvalues == negative
+    scipy_solver = LinearSolver("scipy")
+    scipy_solver.solve(K, np.ones(n))
+    assert scipy_solver.negative_eigenvalues is None

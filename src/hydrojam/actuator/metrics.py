@@ -82,6 +82,10 @@ RUN_FIELDS: tuple[Metric, ...] = (
            "largest ratio of stabilisation energy to elastomer strain energy over the path", float, "run"),
     Metric("stabilisation_released", "", "the final state is an equilibrium without the viscous stabilisation",
            bool, "run"),
+    Metric("buckled_at_s", "-",
+           "first load parameter at which the physical Hessian had a negative eigenvalue: where the path passed "
+           "an instability and the answer became path dependent (None: never)", float, "run", "s_b"),
+    Metric("unstable_states", "-", "accepted states whose physical Hessian had a negative eigenvalue", int, "run"),
     # time-resolved runs only (stimulus.schedule; None otherwise): docs/actuator.md "Actuation in time"
     Metric("time_s", "s", "time of the last converged state since the particles met the solvent (timed runs)",
            float, "run", "t"),
@@ -114,6 +118,9 @@ HISTORY_FIELDS: tuple[Metric, ...] = (
     *STATE_METRICS,
     Metric("newton_iterations", "-", "Newton iterations of this step", int, "step"),
     Metric("wall_time_s", "s", "wall time from the start of the run to this step", float, "step"),
+    Metric("negative_eigenvalues", "-",
+           "negative eigenvalues of the physical energy's Hessian at this state (0: stable; empty: not checked)",
+           int, "step"),
 )
 
 _BY_NAME = {m.name: m for m in (*STATE_METRICS, *RUN_FIELDS)}

@@ -19,8 +19,8 @@ from hydrojam.actuator.metrics import RUN_FIELDS, branch_gap, time_to_fraction
 from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
 from hydrojam.actuator.stimulus import schedule_temperature
 from hydrojam.fem.linsolve import LinearSolver
-from hydrojam.fem.newton import NewtonOptions, minimize
-from hydrojam.fem.path import PathOptions, solve_path
+from hydrojam.fem.newton import NewtonOptions, minimize, negative_curvature
+from hydrojam.fem.path import PathOptions, first_unstable_s, solve_path
 from hydrojam.fem.terms import TimedTerm, ViscousStabilisation, by_name, lumped_volumes
 
 #: viscous stabilisation c = STABILISATION x G_membrane / d [N/mm^3] (docs/actuator.md)
@@ -57,6 +57,10 @@ class StepState:
     iterations: int
     wall_time_s: float
     time_s: float | None = None
+    negative_eigenvalues: int | None = None
+    """Negative eigenvalues of the physical Hessian at this state (the stabilisation left out;
+    :attr:`hydrojam.fem.path.StepRecord.negative_eigenvalues`): 0 stable, > 0 the path is
+    passing an instability here; None where not checked (s = 0) or not available."""
 
 
 @dataclass
@@ -112,6 +116,8 @@ class SimulationResult:
             "wall_time_s": self.wall_time_s,
             "stabilisation_energy_ratio": self.stabilisation.get("max_energy_ratio", 0.0),
             "stabilisation_released": self.stabilisation.get("released", True),
+            "buckled_at_s": first_unstable_s(self.states),
+            "unstable_states": sum(1 for st in self.states if st.negative_eigenvalues),
         }
         run.update(time_metrics(self.states, self.model.path))
         return finite_or_none({**self.final.metrics, **{m.name: run[m.name] for m in RUN_FIELDS}})
@@ -199,10 +205,11 @@ def simulate(
     problem = dataclasses.replace(base, terms=terms)
     states: list[StepState] = []
 
-    def record(s: float, x: np.ndarray, iterations: int) -> None:
+    def record(s: float, x: np.ndarray, iterations: int, negative: int | None = None) -> None:
         mu, T = model.stimulus(s)
         st = StepState(len(states), float(s), float(mu), float(T), np.array(x, dtype=float),
-                       measure(model, x), int(iterations), time.perf_counter() - t_start, model.path.time(s))
+                       measure(model, x), int(iterations), time.perf_counter() - t_start, model.path.time(s),
+                       negative)
         states.append(st)
         if on_step is not None:
             on_step(st)
@@ -216,7 +223,7 @@ def simulate(
             e_el = sum([energies[MEMBRANE], energies[STRAIN_LIMIT_LAYER]])  # the elastomers
             if e_el > 0:
                 ratio[0] = max(ratio[0], stab.energy(x) / e_el)
-        record(s, x, rec.iterations)
+        record(s, x, rec.iterations, rec.negative_eigenvalues)
 
     def attempt(s, ds, res):
         if on_progress is not None:
@@ -232,9 +239,14 @@ def simulate(
         t_release = time.perf_counter()
         x, its, released, rounds = _release(problem, stab, res.x, options, terms, res.timings)
         newton_iterations += its
+        negative = states[-1].negative_eigenvalues
+        if options.stability_check:  # the released state is the one reported: check it
+            physical = [t for t in terms(1.0) if t.name not in options.unphysical_terms]
+            negative = negative_curvature(physical, x, problem.free_mask(), LinearSolver(options.newton.linear_solver),
+                                          options.newton)
         release_seconds = time.perf_counter() - t_release
         states.pop()
-        record(1.0, x, its)
+        record(1.0, x, its, negative)
     wall = time.perf_counter() - t_start
     timings = {
         "total": wall,

@@ -39,10 +39,13 @@ class _Pardiso:
     this class, so an upgrade is reviewed here. Real symmetric indefinite (mtype -2) on the upper
     triangle, called with the 1-based index arrays of the pattern prepared once per pattern."""
 
-    settings: dict[int, int] = {2: 0}
+    settings: dict[int, int] = {2: 0, 34: 1}
     """PARDISO's iparm (1-based index: value) over MKL's defaults for mtype -2 (pardisoinit):
     iparm(2) = 0, minimum-degree ordering instead of MKL's METIS (iparm(2) = 3): a 40% faster
-    analysis and a faster factorisation on these 2D matrices. It changes round-off only;
+    analysis and a faster factorisation on these 2D matrices; iparm(34) = 1, MKL's conditional
+    numerical reproducibility (CNR): the same bits whatever ``HYDROJAM_SOLVER_THREADS``, where
+    MKL's own default (0) makes the parallel factorisation's round-off depend on the thread
+    count (the parallel METIS, iparm(2) = 3, would rule CNR out). Each changes round-off only;
     docs/solver.md gives the measurements ({} restores MKL's defaults)."""
 
     _mkl_rt: str | None = None

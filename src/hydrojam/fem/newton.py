@@ -261,6 +261,34 @@ def _marquardt_update(lm: float, alpha: float, options: NewtonOptions) -> float:
     return lm
 
 
+def negative_curvature(
+    terms: Sequence[EnergyTerm],
+    x: np.ndarray,
+    free: np.ndarray,
+    solver: LinearSolver,
+    options: NewtonOptions = NewtonOptions(),
+) -> int | None:
+    """Number of negative eigenvalues of the unprojected Hessian of ``terms`` over the free DOFs
+    (bool mask over n*d) at positions x (n, d) [mm]: 0 where x is a stable equilibrium of these
+    terms, > 0 where it is unstable (a saddle, or a state held by terms left out). One
+    factorisation of H_ff + eps mean|diag H_ff| I, eps = ``options.regularisation`` (the shift
+    the Newton solve adds): eigenvalues above -eps mean|diag H_ff| count as non-negative, so the
+    exact null space of a floating body and round-off around it never count. None where the
+    solver does not report the inertia (SciPy) or the factorisation fails."""
+    xs = np.asarray(x, dtype=float)
+    fidx = np.flatnonzero(free)
+    if fidx.size == 0:
+        return 0
+    Hff = sp.csr_matrix(sum(t.hessian(xs, False) for t in terms))[fidx][:, fidx]
+    hdiag = abs(Hff.diagonal())
+    K = Hff + sp.diags(np.full(len(fidx), options.regularisation * hdiag.mean()), format="csr")
+    try:
+        solver.solve(K, np.ones(len(fidx)))
+    except LinearSolveError:
+        return None
+    return solver.negative_eigenvalues
+
+
 def minimize(
     terms: Sequence[EnergyTerm],
     x0: np.ndarray,

@@ -12,7 +12,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
-from hydrojam.fem.newton import NewtonOptions, NewtonResult, NewtonStatus, Timings, minimize, sum_energy
+from hydrojam.fem.newton import (NewtonOptions, NewtonResult, NewtonStatus, Timings, minimize, negative_curvature,
+                                 sum_energy)
 from hydrojam.fem.problem import Problem
 
 
@@ -32,12 +33,19 @@ class PathOptions:
     """The last attempt's Newton budget, in units of ``newton.max_iter``."""
     end_tolerance: float = 1e-12
     """s within this of 1 counts as the end of the path."""
+    stability_check: bool = True
+    """Count the negative eigenvalues of the physical Hessian at every accepted state
+    (:func:`~hydrojam.fem.newton.negative_curvature`, one more factorisation a step; see
+    :attr:`StepRecord.negative_eigenvalues`)."""
+    unphysical_terms: tuple[str, ...] = ("stabilisation",)
+    """Names of the terms that are not physics (a viscous stabilisation): left out of the
+    stability check."""
 
 
 @dataclass(frozen=True)
 class StepRecord:
     """One accepted load step: s reached, increment ds, Newton iterations, residual [N], energy
-    [mJ] and wall time [s]."""
+    [mJ], wall time [s] and the stability of the state reached (``negative_eigenvalues``)."""
 
     s: float
     ds: float
@@ -45,6 +53,12 @@ class StepRecord:
     residual: float
     energy: float
     seconds: float
+    negative_eigenvalues: int | None = None
+    """Negative eigenvalues of the physical energy's unprojected Hessian over the free DOFs at
+    the accepted state (terms in ``PathOptions.unphysical_terms`` left out): 0 for a stable
+    equilibrium; > 0 where the state is not a minimum of the physics (the path passes an
+    instability: a saddle reached by symmetry, or a state the stabilisation holds while it
+    travels through a snap). None without the check or without the inertia (SciPy)."""
 
 
 @dataclass(frozen=True)
@@ -63,6 +77,21 @@ class PathResult:
     def newton_iterations(self) -> int:
         """Newton iterations of all accepted steps."""
         return sum(h.iterations for h in self.history)
+
+    @property
+    def unstable_at_s(self) -> float | None:
+        """Load parameter of the first accepted state with a negative eigenvalue of the physical
+        Hessian (:attr:`StepRecord.negative_eigenvalues`); None if there is none."""
+        return first_unstable_s(self.history)
+
+
+def first_unstable_s(history) -> float | None:
+    """The ``s`` of the first record in ``history`` (:class:`StepRecord`-like: ``s``,
+    ``negative_eigenvalues``) with a negative eigenvalue; None if there is none."""
+    for h in history:
+        if h.negative_eigenvalues:
+            return h.s
+    return None
 
 
 def _predictor(problem, terms, x, x_bc, free, solver):
@@ -106,9 +135,14 @@ def solve_path(
     On failure below the minimum increment, returns with the last converged state and a message
     saying where and why. ``callback(s, x, record)`` runs after
     every accepted step, ``on_attempt(s_try, ds, newton_result)`` after every attempt (progress).
-    Every term's ``begin_step`` runs at the start of every step.
+    Every term's ``begin_step`` runs at the start of every step. With
+    ``options.stability_check`` every accepted state's physical Hessian is tested for negative
+    eigenvalues (:attr:`StepRecord.negative_eigenvalues`, :attr:`PathResult.unstable_at_s`).
     """
     solver = LinearSolver(options.newton.linear_solver)
+    # the stability check's own solver: its matrices never touch the Newton solver's pattern
+    # and analysis, so the check leaves the path's round-off as it was
+    checker = LinearSolver(options.newton.linear_solver) if options.stability_check else None
     free = problem.free_mask()
     shape = problem.X.shape
     x = problem.X.ravel().copy()
@@ -147,7 +181,11 @@ def solve_path(
             newton, last_resort = options.newton, False
             s = s_try
             x = res.x.ravel().copy()
-            rec = StepRecord(s, ds, res.iterations, res.residual, res.energy, time.perf_counter() - t0)
+            negative = None
+            if checker is not None:
+                physical = [t for t in terms if t.name not in options.unphysical_terms]
+                negative = negative_curvature(physical, res.x, free, checker, options.newton)
+            rec = StepRecord(s, ds, res.iterations, res.residual, res.energy, time.perf_counter() - t0, negative)
             history.append(rec)
             if callback is not None:
                 callback(s, res.x, rec)

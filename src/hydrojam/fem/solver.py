@@ -5,7 +5,7 @@
 name lives in the module of its concept.
 """
 
-from hydrojam.fem.newton import NewtonOptions, NewtonResult, NewtonStatus, Timings, minimize
+from hydrojam.fem.newton import NewtonOptions, NewtonResult, NewtonStatus, Timings, minimize, negative_curvature
 from hydrojam.fem.path import PathOptions, PathResult, StepRecord, solve_path
 from hydrojam.fem.problem import Dirichlet, Problem, fixed, prescribed
 
@@ -21,6 +21,7 @@ __all__ = [
     "Timings",
     "fixed",
     "minimize",
+    "negative_curvature",
     "prescribed",
     "solve_path",
 ]

@@ -1,0 +1,202 @@
+"""Where a load path loses stability (hydrojam.fem.path, StepRecord.negative_eigenvalues): the
+detector against problems whose critical load is known analytically, and stable problems on
+which it must stay silent."""
+
+import math
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scipy.optimize import brentq
+
+from hydrojam.fem.assembly import Block, Solid
+from hydrojam.fem.elements import element_for_meshio_type
+from hydrojam.fem.linsolve import _pardiso_available
+from hydrojam.fem.meshing import quarter_disk, rectangle
+from hydrojam.fem.solver import NewtonOptions, PathOptions, Problem, fixed, solve_path
+from hydrojam.fem.terms import EnergyTerm, LinearTerm, ScaledTerm, ViscousStabilisation, surface_load
+from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean
+
+pytestmark = pytest.mark.skipif(not _pardiso_available(), reason="the inertia comes from PARDISO (MKL)")
+
+
+class SpringColumn(EnergyTerm):
+    """A rigid-jointed column: node 0 (the base, held) and node 1 (the tip) joined by an axial
+    spring ``axial`` [N/mm] of rest length ``length`` [mm] and a rotational spring
+    ``rotational`` [N mm/rad] on the angle theta of the column from the z axis:
+    E = axial/2 (r - L)^2 + rotational/2 theta^2."""
+
+    name = "column"
+
+    def __init__(self, length, axial, rotational):
+        self.L, self.ka, self.kt = length, axial, rotational
+
+    def _parts(self, x):
+        d = x[1] - x[0]
+        r = float(np.hypot(*d))
+        a, b = d
+        theta = math.atan2(a, b)
+        e = d / r
+        dtheta = np.array([b, -a]) / r**2
+        d2theta = np.array([[-2 * a * b, a * a - b * b], [a * a - b * b, 2 * a * b]]) / r**4
+        return r, e, theta, dtheta, d2theta
+
+    def energy(self, x):
+        r, _, theta, _, _ = self._parts(x)
+        return 0.5 * self.ka * (r - self.L) ** 2 + 0.5 * self.kt * theta**2
+
+    def gradient(self, x):
+        r, e, theta, dtheta, _ = self._parts(x)
+        g = self.ka * (r - self.L) * e + self.kt * theta * dtheta
+        return np.concatenate([-g, g])
+
+    def hessian(self, x, project=False):
+        r, e, theta, dtheta, d2theta = self._parts(x)
+        H = self.ka * (np.outer(e, e) + (r - self.L) / r * (np.eye(2) - np.outer(e, e)))
+        H = H + self.kt * (np.outer(dtheta, dtheta) + theta * d2theta)
+        if project:
+            lam, Q = np.linalg.eigh(H)
+            H = (Q * np.maximum(lam, 0.0)) @ Q.T
+        return sp.csr_matrix(np.block([[H, -H], [-H, H]]))
+
+
+class DoubleWell(EnergyTerm):
+    """One degree of freedom u [mm] in a double well, E = k (u^4/4 - u^2/2) [mJ]: wells at
+    u = -1 and 1, concave for |u| < 1/sqrt(3)."""
+
+    name = "well"
+
+    def __init__(self, k):
+        self.k = k
+
+    def energy(self, x):
+        u = float(x[0, 0])
+        return self.k * (u**4 / 4 - u**2 / 2)
+
+    def gradient(self, x):
+        u = float(x[0, 0])
+        return np.array([self.k * (u**3 - u)])
+
+    def hessian(self, x, project=False):
+        u = float(x[0, 0])
+        h = self.k * (3 * u * u - 1)
+        return sp.csr_matrix([[max(h, 0.0) if project else h]])
+
+
+def _fd_check(term, x, h=1e-6):
+    """Central differences of the energy and the gradient at x."""
+    flat = x.ravel()
+    g, H = term.gradient(x), term.hessian(x).toarray()
+    for i in range(flat.size):
+        dx = np.zeros_like(flat)
+        dx[i] = h
+        xp, xm = (flat + dx).reshape(x.shape), (flat - dx).reshape(x.shape)
+        assert (term.energy(xp) - term.energy(xm)) / (2 * h) == pytest.approx(g[i], rel=1e-6, abs=1e-8)
+        assert np.allclose((term.gradient(xp) - term.gradient(xm)) / (2 * h), H[:, i], rtol=1e-5, atol=1e-7)
+
+
+def test_the_toy_energies_have_consistent_derivatives():
+    """The two toy terms' gradients and Hessians against central differences of their energies."""
+    _fd_check(SpringColumn(10.0, 100.0, 1.0), np.array([[0.1, -0.2], [1.3, 9.1]]))
+    _fd_check(DoubleWell(2.0), np.array([[-0.3]]))
+
+
+def test_a_perfect_column_is_detected_past_its_critical_load():
+    """A perfect spring column under a dead axial load P = s P_max stays straight (the Newton
+    steps keep the symmetry), and the straight state is unstable beyond the critical load of the
+    column, from the Hessian of E in the lateral direction on the straight branch (tip at
+    r = L - P/k_a): k_t / r^2 - P / r = 0, i.e. P_cr (L - P_cr / k_a) = k_t, the smaller root
+    P_cr = (k_a L - sqrt(k_a^2 L^2 - 4 k_a k_t)) / 2. The detector reports no negative eigenvalue
+    below s_cr = P_cr / P_max and exactly one above it, so the first unstable state lies in
+    (s_cr, s_cr + ds] for steps of ds."""
+    L, ka, kt, p_max, ds = 10.0, 100.0, 1.0, 0.2, 0.02
+    p_cr = (ka * L - math.sqrt((ka * L) ** 2 - 4 * ka * kt)) / 2
+    s_cr = p_cr / p_max
+    X = np.array([[0.0, 0.0], [0.0, L]])
+    column = SpringColumn(L, ka, kt)
+    load = LinearTerm(np.array([[0.0, 0.0], [0.0, -p_max]]), X)
+    problem = Problem(X, lambda s: [column, ScaledTerm(load, s)], [fixed([0], 2)], force_scale=p_max)
+    res = solve_path(problem, PathOptions(ds0=ds, ds_max=ds))
+    assert res.converged, res.message
+    assert abs(res.x[1, 0]) < 1e-12  # still straight: the perfect column stays on its trivial branch
+    for h in res.history:
+        assert h.negative_eigenvalues == (1 if h.s > s_cr else 0), (h.s, s_cr)
+    assert s_cr < res.unstable_at_s <= s_cr + ds + 1e-12
+    assert 0.3 < s_cr < 0.7  # the critical load is inside the path, not at an end
+
+
+def test_a_snap_through_held_by_a_stabilisation_is_detected_past_its_limit_point():
+    """A double well loaded by a dead force f = s f_max from its left well: the left branch ends
+    at the limit point u = -1/sqrt(3), f_lim = 2k/(3 sqrt 3). With a viscous stabilisation
+    c (u - u_n) of c = 2k > k (every step's energy convex), the path creeps through the snap,
+    and states with |u| < 1/sqrt(3) are unstable for the physics alone. The detector leaves the
+    stabilisation out ("stabilisation" is an unphysical term), so it fires exactly at the steps
+    whose state, computed here by solving the stabilised step equation
+    k (u^3 - u) - f + c (u - u_n) = 0 with brentq, lies in the concave region; never before the
+    limit load. (The first comes several steps after it: near the limit point the force out of
+    balance is small and the stabilisation lets the state creep; that lag is the
+    stabilisation's, the same in the independent recursion.)"""
+    k, f_max, ds = 1.0, 0.77, 0.02
+    c = 2.0 * k
+    f_lim = 2 * k / (3 * math.sqrt(3))
+    s_lim = f_lim / f_max
+    X = np.array([[-1.0]])
+    well = DoubleWell(k)
+    load = LinearTerm(np.array([[f_max]]), X)
+    stab = ViscousStabilisation(np.array([1.0]), c, 1)
+    problem = Problem(X, lambda s: [well, ScaledTerm(load, s), stab], [], force_scale=f_max)
+    res = solve_path(problem, PathOptions(ds0=ds, ds_max=ds, newton=NewtonOptions(rtol=1e-10)))
+    assert res.converged, res.message
+    u, expected = -1.0, []
+    for h in res.history:
+        f = h.s * f_max
+        u_n = u
+        u = brentq(lambda v: k * (v**3 - v) - f + c * (v - u_n), -3.0, 3.0)  # monotone: one root
+        expected.append(1 if abs(u) < 1 / math.sqrt(3) else 0)
+    assert [h.negative_eigenvalues for h in res.history] == expected
+    assert s_lim < res.unstable_at_s < 1.0
+    assert res.x[0, 0] > 1.0  # it snapped to the right well
+    # with the stabilisation counted as physics, no state is unstable: what the choice is about
+    counted = solve_path(problem, PathOptions(ds0=ds, ds_max=ds, newton=NewtonOptions(rtol=1e-10),
+                                              unphysical_terms=()))
+    assert counted.unstable_at_s is None
+
+
+def test_stable_problems_never_report_an_instability():
+    """A slender cantilever under a tip load (stable: Euler-Bernoulli's regime) and a freely
+    swelling gel disk (stable: the global minimum of the gel's energy; each gel element alone
+    is non-convex under lateral constraint, the assembly is not): no negative eigenvalue at any
+    accepted state."""
+    mesh = rectangle(100.0, 4.0, 2.0, order=2, structured=True)
+    mat = NeoHookean(shear_modulus=0.023, poisson_ratio=0.45)
+    S = Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), mat, "body")])
+    load = surface_load(mesh.points, mesh.facet_groups["right"], [0.0, -1e-4])
+    prob = Problem(mesh.points, lambda s: [S, ScaledTerm(load, s)], [fixed(mesh.group_nodes("left"), 2)],
+                   force_scale=0.023 * 4.0)
+    res = solve_path(prob, PathOptions(ds0=0.5))
+    assert res.converged and res.history
+    assert all(h.negative_eigenvalues == 0 for h in res.history) and res.unstable_at_s is None
+
+    params = HydrogelParams()
+    gel = Hydrogel(params)
+    disk = quarter_disk(2.0, 0.5, order=2)
+    G = Solid(disk.points, [Block(disk.cells, element_for_meshio_type(disk.cell_type), gel, "body")])
+    g = disk.group_nodes
+
+    def terms(s):
+        return [G.with_materials({"body": gel.at(params.mu0 * (1 - s), params.T0 + s * (275.0 - params.T0))})]
+
+    prob = Problem(disk.points, terms, [fixed(g("xsym"), 2, [0]), fixed(g("zsym"), 2, [1])],
+                   force_scale=gel.shear_modulus_ref * 2.0)
+    res = solve_path(prob)
+    assert res.converged and res.history
+    assert all(h.negative_eigenvalues == 0 for h in res.history) and res.unstable_at_s is None
+
+
+def test_the_check_can_be_switched_off():
+    """stability_check=False: no extra factorisation, every record says None."""
+    X = np.array([[-1.0]])
+    problem = Problem(X, lambda s: [DoubleWell(1.0), ScaledTerm(LinearTerm(np.array([[0.1]]), X), s)], [])
+    res = solve_path(problem, PathOptions(stability_check=False))
+    assert res.converged and all(h.negative_eigenvalues is None for h in res.history)
+    assert res.unstable_at_s is None
