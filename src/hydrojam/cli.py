@@ -433,6 +433,65 @@ def reproduce(
                        out, quiet, report=True)
 
 
+@app.command("assess")
+def assess_design(
+    design_file: Path = typer.Argument(..., help="Design file (TOML), e.g. from `hydrojam init`."),
+    out: Path = typer.Option(..., "-o", "--out", help="Output folder: report.md, assessment.json, design.toml, *.png."),
+    loads_file: Optional[Path] = typer.Option(None, "--loads", help="Loads file (TOML; keys in docs/assess.md); the options below override it."),
+    max_force: Optional[float] = typer.Option(None, "--max-force", help="Largest tip force of the curves [N/mm per mm of depth], > 0."),
+    vacuum_kpa: Optional[float] = typer.Option(None, "--vacuum-kpa", help="Vacuum baseline's pressure difference [kPa], in (0, 101.325]."),
+    temperatures: Optional[str] = typer.Option(None, "--temperatures", help="Blocked-force temperatures [K], comma-separated, e.g. 275,285,295."),
+    overrides: list[str] = typer.Option([], "--set", help="Change a design field, e.g. --set particle_layers=1 (repeatable)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress messages."),
+) -> None:
+    """Assess a design as a jamming actuator: bending, stiffness ratio (actuated / unactuated),
+    blocked force against temperature, the vacuum-jamming baseline and the confinement; writes
+    OUT/report.md with its figures. Exit status 0 when every part converged, 1 when one stopped
+    early (the report says which), 2 on bad input. See docs/assess.md."""
+    from hydrojam.assess.spec import AssessError, load_loads, loads_from_dict
+
+    if not design_file.is_file():
+        raise InputError(f"{design_file}: no such design file")
+    design = _design_or_exit(design_file, overrides)
+    try:
+        data = {} if loads_file is None else load_loads(loads_file).model_dump(exclude_unset=True)
+    except AssessError as err:
+        raise InputError(str(err)) from None
+    options = {"max_force": max_force, "vacuum_pressure": vacuum_kpa}
+    for key, value in options.items():
+        if value is not None:
+            data[key] = value
+    if temperatures is not None:
+        try:
+            data["temperatures"] = tuple(float(t) for t in temperatures.split(","))
+        except ValueError:
+            raise InputError(f"--temperatures: expected comma-separated numbers [K], e.g. 275,285,295 (got {temperatures!r})") from None
+    names = {"max_force": "--max-force", "vacuum_pressure": "--vacuum-kpa", "temperatures": "--temperatures"}
+    try:
+        loads = loads_from_dict(data, names)
+    except AssessError as err:
+        raise InputError(str(err)) from None
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out: {out} exists and is not a folder")
+    make_folder(out)
+    from hydrojam.assess.assessment import assess
+    from hydrojam.assess.report import write_report
+
+    console = Console(stderr=True)
+    result = assess(design, loads, on_progress=None if quiet else lambda m: console.print(f"hydrojam assess: {m}..."))
+    report = write_report(result, out)
+    if not quiet:
+        console.print(f"report: {report}", soft_wrap=True)
+    v = result.values
+    stopped = [name for name, ok in (("actuation", v["actuation_converged"]),
+                                     *((f"{k} curve", c.converged) for k, c in result.curves.items()),
+                                     *((f"blocked force at {b['temperature_K']:g} K", b["converged"]) for b in result.blocked))
+               if not ok]
+    if stopped:
+        console.print(f"[red]hydrojam: stopped early: {', '.join(stopped)} (see {report})[/red]", soft_wrap=True)
+        raise typer.Exit(code=1)
+
+
 #: errno values of file-system errors, reported as one line (exit status 2) rather than a traceback
 _FILE_SYSTEM_ERRORS = frozenset(
     getattr(errno, name) for name in ("ENOTDIR", "EISDIR", "EEXIST", "ENOENT", "EACCES", "EPERM", "ENOSPC",
