@@ -45,6 +45,18 @@ class Assessment:
         return finite_or_none({"values": self.values, "curves": curves, "blocked_force": self.blocked})
 
 
+def _stiffness(structure, x) -> float | None:
+    """Tangent stiffness, None where x is not a stable equilibrium (reported, never raised)."""
+    try:
+        return tangent_stiffness(structure, x)
+    except RuntimeError:
+        return None
+
+
+def _ratio(a, b):
+    return None if a is None or b is None else a / b
+
+
 def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], None] | None = None) -> Assessment:
     """Assess ``design`` under ``loads``: actuate it (s = 1), then from the actuated and from the
     as-prepared (s = 0) state a tip load-deflection curve in +x and -x up to ``loads.max_force``
@@ -70,10 +82,10 @@ def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], 
     out.states["actuated"] = x1
     unactuated, actuated = actuator_structure(model, 0.0), actuator_structure(model, 1.0)
     X = model.mesh.points
-    k0 = tangent_stiffness(unactuated, X)
-    k1 = tangent_stiffness(actuated, x1)
-    v.update(stiffness_unactuated=k0, stiffness_actuated=k1, stiffness_ratio=k1 / k0)
-    max_force = loads.max_force if loads.max_force is not None else AUTO_DEFLECTION * design.length * k0
+    k0 = tangent_stiffness(unactuated, X)  # as prepared: stress-free, always stable
+    k1 = _stiffness(actuated, x1)
+    v.update(stiffness_unactuated=k0, stiffness_actuated=k1, stiffness_ratio=_ratio(k1, k0))
+    max_force = loads.max_force if loads.max_force is not None else AUTO_DEFLECTION * design.resolved().length * k0
     v["max_force"] = max_force
     for name, structure, x in (("unactuated", unactuated, X), ("actuated", actuated, x1)):
         say(f"tip load-deflection, {name}, up to +-{max_force:.3g} N/mm")
@@ -107,7 +119,7 @@ def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], 
         vac = vacuum_jamming(model, p, particles)
         unjammed = actuator_structure(model, 0.0, particles)
         kv0 = tangent_stiffness(unjammed, X)
-        kv = tangent_stiffness(vac.structure, vac.x)
+        kv = _stiffness(vac.structure, vac.x)
         out.states["vacuum"] = vac.x
         say("tip load-deflection, vacuum-jammed")
         curve = tip_curve(vac.structure, vac.x, max_force)
@@ -115,7 +127,7 @@ def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], 
         vc = wall_contact_pressure(model, vac.x)
         v.update(vacuum_pressure_target_kPa=loads.vacuum_pressure, vacuum_pressure_kPa=1e3 * vac.pressure,
                  vacuum_converged=vac.converged, vacuum_message=vac.message,
-                 stiffness_vacuum_unjammed=kv0, stiffness_vacuum=kv, stiffness_ratio_vacuum=kv / kv0,
+                 stiffness_vacuum_unjammed=kv0, stiffness_vacuum=kv, stiffness_ratio_vacuum=_ratio(kv, kv0),
                  vacuum_contact_pressure_mean=vc.mean, vacuum_contact_pressure_max=vc.maximum,
                  vacuum_newton_iterations=vac.newton_iterations, vacuum_wall_time_s=time.perf_counter() - t)
     v["wall_time_s"] = time.perf_counter() - t0

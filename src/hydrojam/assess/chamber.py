@@ -12,7 +12,7 @@ import numpy as np
 from hydrojam.actuator.design import Design
 from hydrojam.actuator.model import MEMBRANE, PARTICLES, STRAIN_LIMIT_LAYER, ActuatorModel
 from hydrojam.actuator.simulate import ACTUATOR_PATH, STABILISATION, SimulationResult, simulate
-from hydrojam.assess.loading import Structure
+from hydrojam.assess.loading import Structure, tip_compliance
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.fem.newton import minimize
@@ -128,38 +128,56 @@ BACK_OFF = 0.9
 
 
 def vacuum_jamming(model: ActuatorModel, pressure: float, particles: Material | None = None,
-                   stabilisation: float = STABILISATION, options: PathOptions = VACUUM_PATH) -> VacuumState:
+                   stabilisation: float = STABILISATION, options: PathOptions = VACUUM_PATH,
+                   max_back_offs: int = 6) -> VacuumState:
     """Jam the unactuated chamber (particles at (mu0, T0), or ``particles``) by a vacuum: the
     pressure difference on the outer surface ramped from 0 to ``pressure`` [MPa]
     (:func:`vacuum_term`), with the actuation's viscous stabilisation, released at the end (damping
     lowered 10x per round down to none) so that the state is an equilibrium without it.
 
     Where the walls give way before the target (the membrane folds into the voids between round
-    particles and a square cavity; the walls' self-contact is not modelled, docs/assess.md), the
-    pressure is lowered to :data:`BACK_OFF` x the last pressure held and the state released
-    there: ``converged`` is then False and ``pressure`` says what was held."""
+    particles and a square cavity and meets itself; the walls' self-contact is not modelled,
+    docs/assess.md), the pressure is lowered to :data:`BACK_OFF` x the last pressure held and the
+    state released there, and lowered again (up to ``max_back_offs`` times) while the released
+    state is not stable (its tip compliance not positive): ``converged`` is then False and
+    ``pressure`` says what was held."""
     base = actuator_structure(model, 0.0, particles)
     mesh = model.mesh
     w = lumped_volumes(mesh.points, mesh.cells, mesh.cell_volumes())
     stab = ViscousStabilisation(w, stabilisation * model.membrane.shear_modulus_ref / model.design.particle_diameter, 2)
     vac = vacuum_term(model, pressure)
     res = base.load(mesh.points, lambda s: [ScaledTerm(vac, s), stab], options)
-    its, message, held_p = res.newton_iterations, "converged", float(pressure)
-    x = res.x
-    if not res.converged:
-        held_p = BACK_OFF * res.s * float(pressure)
-        message = (f"the walls gave way at {1e3 * res.s * pressure:.3g} kPa (target {1e3 * pressure:.3g} kPa); "
-                   f"measured at {1e3 * held_p:.3g} kPa")
+    its = res.newton_iterations
+    if res.converged:
+        x, message = _release(base.with_terms(vac), stab, res.x, options)
+        its += message[1]
+        if x is not None:
+            return VacuumState(base.with_terms(vac), x, float(pressure), float(pressure), True, "converged", its)
+    held_p, why = res.s * float(pressure), "the load path stopped there" if not res.converged else "not stable there"
+    for _ in range(max_back_offs):
+        held_p *= BACK_OFF
         vac = vacuum_term(model, held_p)
         stab.scale = 1.0
-        stab.begin_step(x)
-        r = minimize([*base.terms, vac, stab], x, base.free_mask(), base.force_scale, options.newton)
+        stab.begin_step(res.x)
+        r = minimize([*base.terms, vac, stab], res.x, base.free_mask(), base.force_scale, options.newton)
         its += r.iterations
         if not r.converged:
-            return VacuumState(base.with_terms(vac), x, held_p, float(pressure), False, message + f"; {r.message}", its)
-        x = r.x
-    held = base.with_terms(vac)
-    free = held.free_mask()
+            continue
+        x, (_, n) = _release(base.with_terms(vac), stab, r.x, options)
+        its += n
+        if x is not None:
+            message = (f"no stable equilibrium up to {1e3 * pressure:.3g} kPa ({why}: "
+                       f"{1e3 * res.s * pressure:.3g} kPa); measured at {1e3 * held_p:.3g} kPa")
+            return VacuumState(base.with_terms(vac), x, held_p, float(pressure), False, message, its)
+    return VacuumState(base, mesh.points, 0.0, float(pressure), False,
+                       f"no stable vacuum-jammed state found below {1e3 * res.s * pressure:.3g} kPa", its)
+
+
+def _release(held: Structure, stab: ViscousStabilisation, x: np.ndarray, options: PathOptions):
+    """Take the stabilisation off (damping 0.1, 0.01, 0.001 of the path's, then none), each
+    round a minimisation from the last; returns (x, (message, Newton iterations)) with x None
+    if a round fails or the end state is not stable (tip compliance <= 0)."""
+    free, its = held.free_mask(), 0
     for scale in (0.1, 0.01, 0.001, 0.0):
         stab.scale = scale
         stab.begin_step(x)
@@ -167,7 +185,8 @@ def vacuum_jamming(model: ActuatorModel, pressure: float, particles: Material | 
         r = minimize(terms, x, free, held.force_scale, options.newton)
         its += r.iterations
         if not r.converged:
-            return VacuumState(held, x, held_p, float(pressure), False,
-                               f"the stabilisation could not be released at damping x{scale:g}: {r.message}", its)
+            return None, (r.message, its)
         x = r.x
-    return VacuumState(held, x, held_p, float(pressure), res.converged, message, its)
+    if not tip_compliance(held, x) > 0:
+        return None, ("not stable", its)
+    return x, ("converged", its)

@@ -72,6 +72,19 @@ class Structure:
 # Stiffness
 
 
+def tip_compliance(structure: Structure, x: np.ndarray, component: int = 0) -> float:
+    """Tangent compliance w^T K^-1 w [mm per N/mm] of the free-end face at x (n, d), see
+    :func:`tangent_stiffness`; <= 0 where x is not a stable equilibrium (K indefinite)."""
+    x = np.asarray(x, dtype=float)
+    free = structure.free_mask()
+    fidx = np.flatnonzero(free)
+    K = sp.csr_matrix(sum(t.hessian(x, False) for t in structure.terms))[fidx][:, fidx]
+    w = np.zeros(x.size)
+    w[np.arange(len(x)) * structure.dim + component] = structure.weights()
+    wf = w[fidx]
+    return float(wf @ LinearSolver("auto").solve(sp.csr_matrix(K), wf))
+
+
 def tangent_stiffness(structure: Structure, x: np.ndarray, component: int = 0) -> float:
     """Tangent stiffness k = dF/d delta [N/mm; per mm of depth in 2D] of the free-end face at the
     equilibrium x (n, d): F a resultant force on the face in ``component`` (a uniform traction)
@@ -82,16 +95,8 @@ def tangent_stiffness(structure: Structure, x: np.ndarray, component: int = 0) -
     a ground spring under every node, which on a soft slender structure is not small (measured:
     it doubled a 100 mm bilayer cantilever's stiffness). The near-free rotations of
     frictionless round particles are left to the factorisation's pivoting: a tip load does not
-    excite them."""
-    x = np.asarray(x, dtype=float)
-    free = structure.free_mask()
-    fidx = np.flatnonzero(free)
-    K = sp.csr_matrix(sum(t.hessian(x, False) for t in structure.terms))[fidx][:, fidx]
-    w = np.zeros(x.size)
-    w[np.arange(len(x)) * structure.dim + component] = structure.weights()
-    wf = w[fidx]
-    u = LinearSolver("auto").solve(sp.csr_matrix(K), wf)
-    compliance = float(wf @ u)
+    excite them. RuntimeError where x is not a stable equilibrium (compliance <= 0)."""
+    compliance = tip_compliance(structure, x, component)
     if not compliance > 0:
         raise RuntimeError(f"the tangent compliance of the tip is {compliance:g} mm/N: the state is not a stable equilibrium")
     return 1.0 / compliance

@@ -80,10 +80,14 @@ def conclusion(a: Assessment) -> list[str]:
     lines = []
     r = v["stiffness_ratio"]
     lo, hi = REPORTED_GAIN
-    where = "below" if r < lo else ("within" if r <= hi else "above")
-    lines.append(f"Actuation stiffens the actuator {r:.2g}x (tangent bending stiffness at the tip), {where} the "
-                 f"{lo:g}x-{hi:g}x gain the authors' later work reports.")
-    if "stiffness_ratio_vacuum" in v:
+    if r is None:
+        lines.append("The actuated state is not a stable equilibrium (its tip stiffness is not positive): "
+                     "no stiffness ratio.")
+    else:
+        where = "below" if r < lo else ("within" if r <= hi else "above")
+        lines.append(f"Actuation stiffens the actuator {r:.2g}x (tangent bending stiffness at the tip), {where} the "
+                     f"{lo:g}x-{hi:g}x gain the authors' later work reports.")
+    if v.get("stiffness_ratio_vacuum") is not None and r is not None:
         rv = v["stiffness_ratio_vacuum"]
         held = v["vacuum_pressure_kPa"]
         better = "more" if r > rv else "less"
