@@ -76,3 +76,18 @@ def test_full_assessment_of_a_one_layer_actuator(tmp_path):
     assert "9x-30x" in text and "does not hold the gel" in text
     write_report(a, tmp_path)
     assert (tmp_path / "blocked_force.png").exists()
+
+
+@pytest.mark.slow
+def test_design_map_runs_as_a_cached_sweep(tmp_path):
+    """Two membranes as a study sweep: one row per point with the map's values, the figure; a
+    stiffer membrane presses harder on the particles; a rerun loads the points from the cache."""
+    from hydrojam.assess.design_map import MODULUS, design_map
+
+    rows = design_map(QUICK, [2.0], [0.023, 0.2], tmp_path, workers=1)
+    assert [r[MODULUS] for r in rows] == [0.023, 0.2]
+    assert rows[1]["contact_pressure_mean"] > rows[0]["contact_pressure_mean"] > 0
+    assert (tmp_path / "design_map.png").exists()
+    seen = []
+    design_map(QUICK, [2.0], [0.023, 0.2], tmp_path, workers=1, on_point=lambda o, d, n: seen.append(o.cached))
+    assert seen == [True, True]
