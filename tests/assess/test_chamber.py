@@ -20,6 +20,27 @@ def model():
     return build_model(DESIGN)
 
 
+@pytest.fixture(scope="module")
+def actuated(model):
+    return simulate(model)
+
+
+def test_tangent_stiffness_of_the_jammed_state_matches_a_small_load(model, actuated):
+    """At the actuated (jammed, contact-laden) state, the Hessian's tangent stiffness against
+    the secant of a small tip load (2% of the force that deflects the unactuated actuator by 5%
+    of L) in +x and -x, solved by Newton from the state: within 3% (the secant of a finite load
+    includes its curvature; Newton's tolerance 1e-6 of the forces in play)."""
+    from hydrojam.assess.loading import tip_curve
+
+    structure = actuator_structure(model, 1.0)
+    k = tangent_stiffness(structure, actuated.final.x)
+    k0 = tangent_stiffness(actuator_structure(model, 0.0), model.mesh.points)
+    curve = tip_curve(structure, actuated.final.x, 0.02 * 0.05 * DESIGN.length * k0, fractions=(1.0,))
+    assert curve.converged
+    for sign in (1, -1):
+        assert curve.secant(sign) == pytest.approx(k, rel=0.03)
+
+
 def _plane_strain_modulus(spec):
     return 2 * spec.shear_modulus / (1 - spec.poisson_ratio)
 
@@ -66,12 +87,12 @@ def test_outer_surface_is_the_chamber_less_its_clamped_face(model):
         map(tuple, np.sort(model.mesh.facet_groups["cavity"][:, :2], axis=1)))
 
 
-def test_blocked_actuation_holds_the_tip(model):
+def test_blocked_actuation_holds_the_tip(model, actuated):
     """Actuated with a stop at the as-prepared tip, the tip's mean x moves by the stop's give
     F/k_stop only, far less than the free actuator's tip; the stop pushes in +x (the actuator
     bends toward -x), and the force is of the order of the actuated stiffness times the free
     tip displacement (a bending stiffness, not the stop's)."""
-    free = simulate(model)
+    free = actuated
     dx_free = free.metrics["tip_dx_mm"]
     k_act = tangent_stiffness(actuator_structure(model, 1.0), free.final.x)
     result, force, give = blocked_actuation(model)
