@@ -43,6 +43,7 @@ class Structure:
 
     @property
     def dim(self) -> int:
+        """Spatial dimension d (2 or 3)."""
         return self.X.shape[1]
 
     def weights(self) -> np.ndarray:
@@ -58,6 +59,7 @@ class Structure:
         return dataclasses.replace(self, terms=self.terms + tuple(extra))
 
     def free_mask(self) -> np.ndarray:
+        """(n*d,) bool: True where no Dirichlet condition holds the DOF."""
         return Problem(self.X, lambda s: list(self.terms), list(self.dirichlet)).free_mask()
 
     def load(self, x0: np.ndarray, ramped, options: PathOptions = LOAD_PATH):
