@@ -91,9 +91,9 @@ def conclusion(a: Assessment) -> list[str]:
         rv = v["stiffness_ratio_vacuum"]
         held = v["vacuum_pressure_kPa"]
         better = "more" if r > rv else "less"
-        note = "" if v["vacuum_converged"] else f" ({v['vacuum_message']})"
-        lines.append(f"Vacuum jamming of the same chamber at {held:.3g} kPa{note} stiffens it {rv:.2g}x: "
-                     f"the active particles stiffen it {better} than this vacuum baseline.")
+        note = "" if v["vacuum_converged"] else f" (vacuum: {v['vacuum_message']})"
+        lines.append(f"Vacuum jamming of the same chamber at {held:.3g} kPa stiffens it {rv:.2g}x: "
+                     f"the active particles stiffen it {better} than this vacuum baseline{note}.")
     share = v["contact_pressure_mean"] / v["swelling_pressure"] if v["swelling_pressure"] > 0 else None
     if share is not None:
         holds = share >= HOLDS_SHARE
