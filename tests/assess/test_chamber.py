@@ -100,3 +100,21 @@ def test_blocked_actuation_holds_the_tip(model, actuated):
     assert force[0] > 0 and force[1] == 0.0
     assert abs(give) < 0.01 * abs(dx_free)
     assert 0.3 < force[0] / (k_act * abs(dx_free)) < 3.0
+
+
+def test_vacuum_jams_the_chamber_without_the_walls_passing_through_each_other(model):
+    """80 kPa on the outer surface (3.5 G of the membrane): with the walls' self-contact the path
+    reaches the target; no boundaries intersect (IPC's guarantee, walls included); the jammed
+    chamber is stiffer; and where the membrane rests on the particle it passes the vacuum on:
+    the mean contact pressure is of the order of p (a membrane of G = 23 kPa cannot hold 80 kPa
+    by itself: between 0.5 p and 2 p)."""
+    from hydrojam.assess.chamber import self_contact, vacuum_jamming
+    from hydrojam.assess.confinement import wall_contact_pressure
+
+    p = 0.08
+    vac = vacuum_jamming(model, p)
+    assert vac.converged and vac.pressure == p
+    assert not self_contact(model).has_intersections(vac.x)
+    k0 = tangent_stiffness(actuator_structure(model, 0.0), model.mesh.points)
+    assert tangent_stiffness(vac.structure, vac.x) > 2 * k0
+    assert 0.5 * p < wall_contact_pressure(model, vac.x).mean < 2 * p

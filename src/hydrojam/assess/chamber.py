@@ -10,10 +10,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from hydrojam.actuator.design import Design
-from hydrojam.actuator.model import MEMBRANE, PARTICLES, STRAIN_LIMIT_LAYER, ActuatorModel
+from hydrojam.actuator.model import MEMBRANE, PARTICLES, STRAIN_LIMIT_LAYER, WALL_COMPONENT, ActuatorModel
 from hydrojam.actuator.simulate import ACTUATOR_PATH, STABILISATION, SimulationResult, simulate
 from hydrojam.assess.loading import Structure, tip_compliance
 from hydrojam.fem.assembly import Block, Solid
+from hydrojam.fem.contact import Contact
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.fem.newton import minimize
 from hydrojam.fem.path import PathOptions
@@ -27,14 +28,27 @@ from hydrojam.materials.energies import Material
 BLOCK_STIFFNESS_PER_MODULUS = 100.0
 
 
-def actuator_structure(model: ActuatorModel, s: float = 1.0, particles: Material | None = None) -> Structure:
+def self_contact(model: ActuatorModel) -> Contact:
+    """The model's contact with the walls' self-contact added: every wall node its own contact
+    component (the particles keep theirs), so the membrane folding onto itself meets a barrier
+    like any other contact (IPC's self-contact; adjacent segments never collide). Same barrier
+    settings as the model's. The particles' forces on the walls are still the model's own
+    ``contact`` at the same state (the barrier is a sum over pairs)."""
+    components = np.array(model.components, copy=True)
+    walls = np.flatnonzero(components == WALL_COMPONENT)
+    components[walls] = model.n_particles + np.arange(len(walls))
+    return Contact(model.mesh.points, model.mesh.boundary_facets(), components, model.contact.settings)
+
+
+def actuator_structure(model: ActuatorModel, s: float = 1.0, particles: Material | None = None,
+                       contact: Contact | None = None) -> Structure:
     """The actuator at load parameter s (materials at the stimulus of s; s = 0: the as-prepared
-    state (mu0, T0)), optionally with another ``particles`` material: the solid ("elastic") and
-    "contact", clamped top, the free-end face loaded."""
+    state (mu0, T0)), optionally with another ``particles`` material or ``contact`` term: the
+    solid ("elastic") and "contact", clamped top, the free-end face loaded."""
     materials = model.materials_at(s)
     if particles is not None:
         materials[PARTICLES] = particles
-    terms = (model.solid.with_materials(materials), model.contact)
+    terms = (model.solid.with_materials(materials), model.contact if contact is None else contact)
     return Structure(model.mesh.points, terms, (fixed(model.clamp_nodes, 2),),
                      model.mesh.facet_groups["free_end"], model.membrane.shear_modulus_ref * model.design.particle_diameter)
 
@@ -129,7 +143,7 @@ BACK_OFF = 0.9
 
 def vacuum_jamming(model: ActuatorModel, pressure: float, particles: Material | None = None,
                    stabilisation: float = STABILISATION, options: PathOptions = VACUUM_PATH,
-                   max_back_offs: int = 6) -> VacuumState:
+                   max_back_offs: int = 6, walls_meet: bool = True) -> VacuumState:
     """Jam the unactuated chamber (particles at (mu0, T0), or ``particles``) by a vacuum: the
     pressure difference on the outer surface ramped from 0 to ``pressure`` [MPa]
     (:func:`vacuum_term`), with the actuation's viscous stabilisation, released at the end (damping
@@ -140,8 +154,10 @@ def vacuum_jamming(model: ActuatorModel, pressure: float, particles: Material | 
     docs/assess.md), the pressure is lowered to :data:`BACK_OFF` x the last pressure held and the
     state released there, and lowered again (up to ``max_back_offs`` times) while the released
     state is not stable (its tip compliance not positive): ``converged`` is then False and
-    ``pressure`` says what was held."""
-    base = actuator_structure(model, 0.0, particles)
+    ``pressure`` says what was held. ``walls_meet``: with the walls' self-contact
+    (:func:`self_contact`; without it the walls pass through each other in the corner voids and
+    the path stops near 12-20 kPa, docs/assess.md)."""
+    base = actuator_structure(model, 0.0, particles, self_contact(model) if walls_meet else None)
     mesh = model.mesh
     w = lumped_volumes(mesh.points, mesh.cells, mesh.cell_volumes())
     stab = ViscousStabilisation(w, stabilisation * model.membrane.shear_modulus_ref / model.design.particle_diameter, 2)
