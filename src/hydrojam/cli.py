@@ -439,7 +439,7 @@ def assess_design(
     out: Path = typer.Option(..., "-o", "--out", help="Output folder: report.md, assessment.json, design.toml, *.png."),
     loads_file: Optional[Path] = typer.Option(None, "--loads", help="Loads file (TOML; keys in docs/assess.md); the options below override it."),
     max_force: Optional[float] = typer.Option(None, "--max-force", help="Largest tip force of the curves [N/mm per mm of depth], > 0."),
-    vacuum_kpa: Optional[float] = typer.Option(None, "--vacuum-kpa", help="Vacuum baseline's pressure difference [kPa], in (0, 101.325]."),
+    vacuum_kpa: Optional[float] = typer.Option(None, "--vacuum-kpa", help="Vacuum baseline's pressure difference in kPa, in (0, 101.325]."),
     temperatures: Optional[str] = typer.Option(None, "--temperatures", help="Blocked-force temperatures [K], comma-separated, e.g. 275,285,295."),
     overrides: list[str] = typer.Option([], "--set", help="Change a design field, e.g. --set particle_layers=1 (repeatable)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress messages."),
