@@ -105,7 +105,9 @@ def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], 
         for T_b in loads.temperatures:
             say(f"blocked actuation at T = {T_b:g} K")
             t = time.perf_counter()
-            m_b = build_model(design.model_copy(update={"stimulus": design.stimulus.model_copy(update={"temperature": T_b})}))
+            # a steady stimulus at T_b (a schedule, if any, is the actuation's, not the blocked test's)
+            stimulus = design.stimulus.model_copy(update={"temperature": T_b, "schedule": None})
+            m_b = build_model(design.model_copy(update={"stimulus": stimulus}))
             res, force, give = blocked_actuation(m_b)
             out.blocked.append({"temperature_K": T_b, "force_x_N_per_mm": float(force[0]), "give_mm": give,
                                 "converged": res.converged, "newton_iterations": res.newton_iterations,
