@@ -492,6 +492,65 @@ def assess_design(
         raise typer.Exit(code=1)
 
 
+def _numbers(option: str, text: str, unit: str) -> list[float]:
+    """Comma-separated positive finite numbers of a CLI option, or InputError naming it."""
+    try:
+        values = [float(t) for t in text.split(",")]
+    except ValueError:
+        raise InputError(f"{option}: expected comma-separated numbers in {unit}, e.g. 1,2,4 (got {text!r})") from None
+    for v in values:
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"{option}: each value must be a finite number > 0 {unit} (got {v:g})")
+    return values
+
+
+@app.command("design-map")
+def design_map_command(
+    design_file: Path = typer.Argument(..., help="Base design file (TOML)."),
+    out: Path = typer.Option(..., "-o", "--out", help="Output folder: points/ (cached, resumable), design_map.csv, design_map.png."),
+    thickness: str = typer.Option("1,2,4", "--thickness", help="Membrane side-wall thicknesses t0 in mm, comma-separated."),
+    modulus: str = typer.Option("0.023,0.07,0.2", "--modulus", help="Membrane shear moduli G in MPa, comma-separated (Ecoflex 00-30 0.023 ... Dragon Skin 30-class 0.2)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes, one thread each (default: one per CPU)."),
+    overrides: list[str] = typer.Option([], "--set", help="Change a base design field (repeatable)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress messages."),
+) -> None:
+    """The membrane design map: bending angle, stiffness ratio and confinement (contact against
+    swelling pressure) over wall thickness x shear modulus, one assessment (no blocked force, no
+    vacuum) per point, run as a cached sweep. See docs/assess.md."""
+    if not design_file.is_file():
+        raise InputError(f"{design_file}: no such design file")
+    design = _design_or_exit(design_file, overrides)
+    ts, gs = _numbers("--thickness", thickness, "mm"), _numbers("--modulus", modulus, "MPa")
+    _check_workers(workers, None, out)
+    from hydrojam.actuator.design import DesignError
+    from hydrojam.assess.design_map import MAP_VALUES, MODULUS, THICKNESS, design_map
+
+    console = Console(stderr=True)
+
+    def on_point(outcome, done, total):
+        if not quiet:
+            console.print(f"hydrojam design-map: point {done}/{total} {outcome.status}{' (cached)' if outcome.cached else ''}")
+
+    try:
+        rows = design_map(design, ts, gs, out, workers=workers, on_point=on_point)
+    except DesignError as err:
+        raise InputError(str(err)) from None
+    from hydrojam._io import finite_or_none, write_text_atomic
+
+    buffer = io.StringIO()
+    writer = csv.writer(buffer)
+    columns = [THICKNESS, MODULUS, *MAP_VALUES]
+    writer.writerow(columns)
+    for r in rows:
+        writer.writerow(["" if finite_or_none(r.get(c)) is None else r.get(c) for c in columns])
+    write_text_atomic(out / "design_map.csv", buffer.getvalue())
+    if not quiet:
+        console.print(f"map: {out / 'design_map.csv'} and {out / 'design_map.png'}", soft_wrap=True)
+    if any(r.get("converged") is not True for r in rows):
+        console.print("[red]hydrojam: some points failed or stopped early (empty cells in design_map.csv)[/red]")
+        raise typer.Exit(code=1)
+
+
 #: errno values of file-system errors, reported as one line (exit status 2) rather than a traceback
 _FILE_SYSTEM_ERRORS = frozenset(
     getattr(errno, name) for name in ("ENOTDIR", "EISDIR", "EEXIST", "ENOENT", "EACCES", "EPERM", "ENOSPC",

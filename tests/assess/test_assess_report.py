@@ -91,3 +91,16 @@ def test_design_map_runs_as_a_cached_sweep(tmp_path):
     seen = []
     design_map(QUICK, [2.0], [0.023, 0.2], tmp_path, workers=1, on_point=lambda o, d, n: seen.append(o.cached))
     assert seen == [True, True]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--thickness", "1,-2"], "--thickness: each value must be a finite number > 0 mm"),
+    (["--modulus", "0.02,soft"], "--modulus: expected comma-separated numbers in MPa"),
+    (["--workers", "0"], "--workers: must be >= 1"),
+])
+def test_design_map_refuses_bad_ranges_before_any_work(tmp_path, design_file, capsys, args, words):
+    out = tmp_path / "out"
+    assert main(["design-map", str(design_file), "-o", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    assert words in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
