@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from hydrojam._io import atomic_path, finite_or_none, make_folder, write_text_atomic
+from hydrojam._io import atomic_path, make_folder, write_text_atomic
 from hydrojam.actuator.design import design_to_toml
 from hydrojam.assess.assessment import Assessment
 
