@@ -74,7 +74,14 @@ def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], 
     out.model = model
     say(f"actuating to T = {design.stimulus.temperature:g} K")
     t = time.perf_counter()
-    run = simulate(model)
+    quarter = [0.25]
+
+    def progress(s: float) -> None:
+        if s >= quarter[0] and s < 1.0:
+            say(f"actuation at s = {s:.2f}")
+            quarter[0] = 0.25 * (int(s / 0.25) + 1)
+
+    run = simulate(model, on_progress=progress)
     v.update(bending_angle_deg=run.metrics["bending_angle_deg"], tip_dx_mm=run.metrics["tip_dx_mm"],
              tip_dz_mm=run.metrics["tip_dz_mm"], actuation_converged=run.converged,
              actuation_newton_iterations=run.newton_iterations, actuation_wall_time_s=time.perf_counter() - t)
