@@ -101,8 +101,9 @@ def conclusion(a: Assessment) -> list[str]:
                      f"({1e3 * v['contact_pressure_max']:.3g} kPa at most) against the {1e3 * v['swelling_pressure']:.4g} kPa "
                      f"the gel would exert if held at its as-prepared size: {share:.2g} of it. "
                      + ("The wall holds the gel." if holds else
-                        "The wall does not hold the gel: the particles swell almost freely and the membrane balloons; "
-                        "the jamming pressure is set by the membrane, not by the gel."))
+                        f"The wall does not hold the gel: the particles swell almost freely (mean swelling ratio "
+                        f"{v['mean_swelling_ratio']:.3g}); the contact pressure is what the membrane gives, not what the "
+                        f"gel could exert."))
     if a.blocked:
         F = [(b["temperature_K"], b["force_x_N_per_mm"]) for b in a.blocked]
         lines.append("Blocked force: " + ", ".join(f"{1e3 * f:.3g} mN/mm at {T:g} K" for T, f in F)
@@ -134,7 +135,7 @@ def write_report(a: Assessment, out: str | os.PathLike) -> Path:
             ("confined swelling pressure of the gel", _f(1e3 * v["swelling_pressure"], 4), "kPa"),
             ("mean swelling ratio of the particles", _f(v["mean_swelling_ratio"]), "-")]
     lines = [f"# hydrojam assessment: are these active particles suitable for jamming?", "",
-             f"Design: {d.particle_layers} layers of {d.particle_diameter:g} mm particles, membrane G = "
+             f"Design: {d.particle_layers} layer{'s' if d.particle_layers != 1 else ''} of {d.particle_diameter:g} mm particles, membrane G = "
              f"{d.membrane.shear_modulus:g} MPa, t0 = {d.side_wall_thickness:g} mm, strain-limit layer h = "
              f"{d.strain_limit_thickness:g} mm, actuated at T = {d.stimulus.temperature:g} K (2D, plane strain: "
              f"forces per mm of depth). Wall time {v['wall_time_s']:.0f} s.", "", "## Conclusion", ""]
