@@ -2,7 +2,7 @@
 cycles, light imports stay light, and no module changes a user's matplotlib backend.
 
 Layers, lowest first: the shared helpers (``_io``, ``_validation``) < ``materials`` < ``fem`` <
-``actuator`` < ``study`` < ``paper`` < ``cli``. A module may import its own layer and the ones
+``actuator`` < ``study`` < ``assess`` < ``paper`` < ``cli``. A module may import its own layer and the ones
 below, never one above. Imports inside functions count too: a lazy import is still a dependency.
 """
 
@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "hydrojam"
-LAYERS = ["_io", "_validation", "materials", "fem", "actuator", "study", "paper", "cli"]
-RANK = {"_io": 0, "_validation": 0, "materials": 1, "fem": 2, "actuator": 3, "study": 4, "paper": 5, "cli": 6}
+LAYERS = ["_io", "_validation", "materials", "fem", "actuator", "study", "assess", "paper", "cli"]
+RANK = {"_io": 0, "_validation": 0, "materials": 1, "fem": 2, "actuator": 3, "study": 4, "assess": 5, "paper": 6, "cli": 7}
 
 
 def _module_name(path: Path) -> str:

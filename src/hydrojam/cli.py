@@ -436,6 +436,124 @@ def reproduce(
                        out, quiet, report=True)
 
 
+@app.command("assess")
+def assess_design(
+    design_file: Path = typer.Argument(..., help="Design file (TOML), e.g. from `hydrojam init`."),
+    out: Path = typer.Option(..., "-o", "--out", help="Output folder: report.md, assessment.json, design.toml, *.png."),
+    loads_file: Optional[Path] = typer.Option(None, "--loads", help="Loads file (TOML; keys in docs/assess.md); the options below override it."),
+    max_force: Optional[float] = typer.Option(None, "--max-force", help="Largest tip force of the curves [N/mm per mm of depth], > 0."),
+    vacuum_kpa: Optional[float] = typer.Option(None, "--vacuum-kpa", help="Vacuum baseline's pressure difference in kPa, in (0, 101.325]."),
+    temperatures: Optional[str] = typer.Option(None, "--temperatures", help="Blocked-force temperatures [K], comma-separated, e.g. 275,285,295."),
+    overrides: list[str] = typer.Option([], "--set", help="Change a design field, e.g. --set particle_layers=1 (repeatable)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress messages."),
+) -> None:
+    """Assess a design as a jamming actuator: bending, stiffness ratio (actuated / unactuated),
+    blocked force against temperature, the vacuum-jamming baseline and the confinement; writes
+    OUT/report.md with its figures. Exit status 0 when every part converged, 1 when one stopped
+    early (the report says which), 2 on bad input. See docs/assess.md."""
+    from hydrojam.assess.spec import AssessError, load_loads, loads_from_dict
+
+    if not design_file.is_file():
+        raise InputError(f"{design_file}: no such design file")
+    design = _design_or_exit(design_file, overrides)
+    try:
+        data = {} if loads_file is None else load_loads(loads_file).model_dump(exclude_unset=True)
+    except AssessError as err:
+        raise InputError(str(err)) from None
+    options = {"max_force": max_force, "vacuum_pressure": vacuum_kpa}
+    for key, value in options.items():
+        if value is not None:
+            data[key] = value
+    if temperatures is not None:
+        try:
+            data["temperatures"] = tuple(float(t) for t in temperatures.split(","))
+        except ValueError:
+            raise InputError(f"--temperatures: expected comma-separated numbers [K], e.g. 275,285,295 (got {temperatures!r})") from None
+    names = {"max_force": "--max-force", "vacuum_pressure": "--vacuum-kpa", "temperatures": "--temperatures"}
+    try:
+        loads = loads_from_dict(data, names)
+    except AssessError as err:
+        raise InputError(str(err)) from None
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out: {out} exists and is not a folder")
+    make_folder(out)
+    from hydrojam.assess.assessment import assess
+    from hydrojam.assess.report import write_report
+
+    console = Console(stderr=True)
+    result = assess(design, loads, on_progress=None if quiet else lambda m: console.print(f"hydrojam assess: {m}..."))
+    report = write_report(result, out)
+    if not quiet:
+        console.print(f"report: {report}", soft_wrap=True)
+    v = result.values
+    stopped = [name for name, ok in (("actuation", v["actuation_converged"]),
+                                     *((f"{k} curve", c.converged) for k, c in result.curves.items()),
+                                     *((f"blocked force at {b['temperature_K']:g} K", b["converged"]) for b in result.blocked))
+               if not ok]
+    if stopped:
+        console.print(f"[red]hydrojam: stopped early: {', '.join(stopped)} (see {report})[/red]", soft_wrap=True)
+        raise typer.Exit(code=1)
+
+
+def _numbers(option: str, text: str, unit: str) -> list[float]:
+    """Comma-separated positive finite numbers of a CLI option, or InputError naming it."""
+    try:
+        values = [float(t) for t in text.split(",")]
+    except ValueError:
+        raise InputError(f"{option}: expected comma-separated numbers in {unit}, e.g. 1,2,4 (got {text!r})") from None
+    for v in values:
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"{option}: each value must be a finite number > 0 {unit} (got {v:g})")
+    return values
+
+
+@app.command("design-map")
+def design_map_command(
+    design_file: Path = typer.Argument(..., help="Base design file (TOML)."),
+    out: Path = typer.Option(..., "-o", "--out", help="Output folder: points/ (cached, resumable), design_map.csv, design_map.png."),
+    thickness: str = typer.Option("1,2,4", "--thickness", help="Membrane side-wall thicknesses t0 in mm, comma-separated."),
+    modulus: str = typer.Option("0.023,0.07,0.2", "--modulus", help="Membrane shear moduli G in MPa, comma-separated (Ecoflex 00-30 0.023 ... Dragon Skin 30-class 0.2)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes, one thread each (default: one per CPU)."),
+    overrides: list[str] = typer.Option([], "--set", help="Change a base design field (repeatable)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress messages."),
+) -> None:
+    """The membrane design map: bending angle, stiffness ratio and confinement (contact against
+    swelling pressure) over wall thickness x shear modulus, one assessment (no blocked force, no
+    vacuum) per point, run as a cached sweep. See docs/assess.md."""
+    if not design_file.is_file():
+        raise InputError(f"{design_file}: no such design file")
+    design = _design_or_exit(design_file, overrides)
+    ts, gs = _numbers("--thickness", thickness, "mm"), _numbers("--modulus", modulus, "MPa")
+    _check_workers(workers, None, out)
+    from hydrojam.actuator.design import DesignError
+    from hydrojam.assess.design_map import MAP_VALUES, MODULUS, THICKNESS, design_map
+
+    console = Console(stderr=True)
+
+    def on_point(outcome, done, total):
+        if not quiet:
+            console.print(f"hydrojam design-map: point {done}/{total} {outcome.status}{' (cached)' if outcome.cached else ''}")
+
+    try:
+        rows = design_map(design, ts, gs, out, workers=workers, on_point=on_point)
+    except DesignError as err:
+        raise InputError(str(err)) from None
+    from hydrojam._io import finite_or_none, write_text_atomic
+
+    buffer = io.StringIO()
+    writer = csv.writer(buffer)
+    columns = [THICKNESS, MODULUS, *MAP_VALUES]
+    writer.writerow(columns)
+    for r in rows:
+        writer.writerow(["" if finite_or_none(r.get(c)) is None else r.get(c) for c in columns])
+    write_text_atomic(out / "design_map.csv", buffer.getvalue())
+    if not quiet:
+        console.print(f"map: {out / 'design_map.csv'} and {out / 'design_map.png'}", soft_wrap=True)
+    if any(r.get("converged") is not True for r in rows):
+        console.print("[red]hydrojam: some points failed or stopped early (empty cells in design_map.csv)[/red]")
+        raise typer.Exit(code=1)
+
+
 #: errno values of file-system errors, reported as one line (exit status 2) rather than a traceback
 _FILE_SYSTEM_ERRORS = frozenset(
     getattr(errno, name) for name in ("ENOTDIR", "EISDIR", "EEXIST", "ENOENT", "EACCES", "EPERM", "ENOSPC",

@@ -170,6 +170,7 @@ def simulate(
     on_step: Callable[[StepState], None] | None = None,
     on_progress: Callable[[float], None] | None = None,
     stabilisation: float = STABILISATION,
+    extra_terms: tuple = (),
 ) -> SimulationResult:
     """Follow the stimulus from the as-prepared state (s = 0) to the target (s = 1).
 
@@ -181,6 +182,9 @@ def simulate(
     node's motion within a load step (:class:`hydrojam.fem.terms.ViscousStabilisation`), released at
     s = 1 so that the final state is an equilibrium without it (0: none). The final state
     replaces the last stabilised one in ``states`` (same index, passed to ``on_step`` again).
+
+    ``extra_terms``: energy terms added to the model's (e.g. a spring that blocks the tip,
+    :mod:`hydrojam.assess`), kept through the release.
 
     With ``stimulus.schedule`` in the design the path is time-resolved (built by
     :func:`~hydrojam.actuator.model.build_model`) and
@@ -196,7 +200,7 @@ def simulate(
         w = lumped_volumes(mesh.points, mesh.cells, mesh.cell_volumes())
         c = stabilisation * model.membrane.shear_modulus_ref / model.design.particle_diameter
         stab = ViscousStabilisation(w, c, mesh.dim)
-    base = model.problem(() if stab is None else (stab,))
+    base = model.problem(tuple(extra_terms) + (() if stab is None else (stab,)))
     clocks = {"elastic": elastic, "contact": contact}
 
     def terms(s: float):

@@ -437,3 +437,85 @@ class PressureTerm(EnergyTerm):
             lam, Q = np.linalg.eigh(He)
             He = np.einsum("fij,fj,fkj->fik", Q, np.maximum(lam, 0.0), Q)
         return sp.csr_matrix(sp.coo_matrix((np.ravel(He), (self._rows, self._cols)), shape=(n, n)))
+
+
+# ----------------------------------------------------------------------------------------------
+# Loads on a face: a resultant force and a spring on the face's centroid
+
+
+def face_weights(reference: np.ndarray, facets: np.ndarray) -> np.ndarray:
+    """Consistent nodal weights (n,) of boundary ``facets`` (nf, nfn) at reference positions
+    (n, d) [mm]: w_a = int N_a dA / A over the facets, summing to 1. ``sum_a w_a x_a`` is the
+    face's area-weighted mean position, the work-conjugate of a uniform traction on it."""
+    reference = np.asarray(reference, dtype=float)
+    facets = np.asarray(facets, dtype=np.int64)
+    fe = ELEMENTS[_facet_type_of(reference.shape[1], facets.shape[1])]
+    N, dA, _ = facet_measure(fe, reference[facets])
+    nodal = np.einsum("qa,fq->fa", N, dA)
+    w = np.bincount(facets.ravel(), weights=nodal.ravel(), minlength=len(reference))
+    return w / w.sum()
+
+
+def resultant_load(reference: np.ndarray, facets: np.ndarray, force, name: str = "tip_force") -> LinearTerm:
+    """A dead force ``force`` [N; N/mm in 2D, per unit depth] (length d) spread over boundary
+    ``facets`` as a uniform traction on their reference area: nodal forces w_a F with the
+    weights of :func:`face_weights`, so its work is F . (mean displacement of the face)."""
+    w = face_weights(reference, facets)
+    return LinearTerm(w[:, None] * np.asarray(force, dtype=float)[None, :], reference, name)
+
+
+class CentroidSpring(EnergyTerm):
+    """A stiff linear spring between a face's mean position c(x) = sum_a w_a x_a (weights of
+    :func:`face_weights`) and a ``target`` [mm], in the ``components`` given: E = k/2 sum_i
+    (c_i - target_i)^2, ``stiffness`` k [N/mm; N/mm per unit depth in 2D]. A penalty form of a
+    prescribed face displacement that leaves the face free to rotate and deform (a pin or a
+    frictionless stop, not a guided end); :meth:`reaction` is the force the spring exerts on the
+    face [N] and the spring's stretch (c - target) is the constraint's error, F/k."""
+
+    name = "tip_spring"
+
+    def __init__(self, reference: np.ndarray, facets: np.ndarray, target, stiffness: float,
+                 components=(0, 1), name: str = "tip_spring"):
+        self.reference = np.asarray(reference, dtype=float)
+        self.dim = self.reference.shape[1]
+        self.weights = face_weights(self.reference, facets)
+        self.nodes = np.flatnonzero(self.weights)
+        self.components = tuple(int(c) for c in components)
+        self.target = np.array(target, dtype=float)
+        self.stiffness = float(stiffness)
+        self.name = name
+
+    def centroid(self, x: np.ndarray) -> np.ndarray:
+        """The face's mean position c(x) (d,) [mm]."""
+        return self.weights @ np.asarray(x, dtype=float).reshape(-1, self.dim)
+
+    def _stretch(self, x) -> np.ndarray:
+        e = np.zeros(self.dim)
+        c = self.centroid(x)
+        for i in self.components:
+            e[i] = c[i] - self.target[i]
+        return e
+
+    def reaction(self, x: np.ndarray) -> np.ndarray:
+        """Force (d,) [N; N/mm in 2D] the spring exerts on the face: -k (c - target)."""
+        return -self.stiffness * self._stretch(x)
+
+    def energy(self, x):
+        e = self._stretch(x)
+        return 0.5 * self.stiffness * float(e @ e)
+
+    def gradient(self, x):
+        return (self.weights[:, None] * (self.stiffness * self._stretch(x))[None, :]).ravel()
+
+    def hessian(self, x, project=False):
+        n = np.size(x)
+        rows, cols, vals = [], [], []
+        w = self.weights[self.nodes]
+        for i in self.components:
+            dofs = self.nodes * self.dim + i
+            rows.append(np.repeat(dofs, len(dofs)))
+            cols.append(np.tile(dofs, len(dofs)))
+            vals.append(self.stiffness * np.outer(w, w).ravel())
+        if not rows:
+            return sp.csr_matrix((n, n))
+        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))

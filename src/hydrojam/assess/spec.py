@@ -1,0 +1,85 @@
+"""The loads of an assessment (``hydrojam assess --loads LOADS.toml``): validated before any work,
+one line naming the field and its allowed range (docs/assess.md). Units: N/mm (2D, per unit
+depth), kPa, K."""
+
+from __future__ import annotations
+
+import os
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from hydrojam._io import read_toml
+from hydrojam._validation import describe_error
+from hydrojam.actuator.design import WATER_RANGE_K, DesignError, ElastomerSpec
+
+#: a vacuum cannot pull harder than the atmosphere it works against [kPa]
+ATMOSPHERE_KPA = 101.325
+#: largest tip force [N/mm per unit depth]: 10 N per mm of depth is over 1000x the bending
+#: stiffness of a 2D Ecoflex actuator times its length; anything larger is a unit mistake
+MAX_TIP_FORCE = 10.0
+
+
+class AssessError(DesignError):
+    """Invalid assessment loads: one line naming the field and its allowed range."""
+
+
+class Loads(BaseModel):
+    """What an assessment applies to the design (docs/assess.md)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    max_force: float | None = Field(
+        None, gt=0, le=MAX_TIP_FORCE,
+        description="largest tip force of the load-deflection curves, in +x and -x; omitted: the force "
+        "that deflects the unactuated actuator by 5% of its length at its tangent stiffness [N/mm]",
+    )
+    temperatures: tuple[float, ...] = Field(
+        (275.0, 285.0, 295.0), min_length=1, max_length=20,
+        description="temperatures of the blocked force [K]",
+    )
+    vacuum_pressure: float = Field(
+        80.0, gt=0, le=ATMOSPHERE_KPA,
+        description="pressure difference of the vacuum-jamming baseline on the chamber's outer surface, "
+        "at most one atmosphere [kPa]",
+    )
+    baseline_particles: ElastomerSpec | None = Field(
+        None, description="particles of the vacuum baseline; omitted: the gel as prepared (mu0, T0)",
+    )
+    blocking: bool = Field(True, description="compute the blocked force at each temperature [-]")
+    vacuum: bool = Field(True, description="compute the vacuum-jamming baseline [-]")
+
+    @field_validator("temperatures")
+    @classmethod
+    def _in_water(cls, value):
+        lo, hi = WATER_RANGE_K
+        for T in value:
+            if not lo <= T <= hi:
+                raise ValueError(f"each temperature must be in liquid water's range [{lo}, {hi}] K (got {T:g} K)")
+        return value
+
+
+def loads_from_dict(data: dict, names: dict[str, str] | None = None) -> Loads:
+    """Validated :class:`Loads` from plain data; raises :class:`AssessError` (one line naming the
+    field, or its alias in ``names``, e.g. a CLI option)."""
+    if not isinstance(data, dict):
+        raise AssessError(f"loads: expected a table of keys, got {type(data).__name__}")
+    lo, hi = WATER_RANGE_K
+    temps = data.get("temperatures")
+    if isinstance(temps, (list, tuple)):
+        for T in temps:
+            if isinstance(T, (int, float)) and not isinstance(T, bool) and not lo <= T <= hi:
+                label = (names or {}).get("temperatures", "temperatures")
+                raise AssessError(f"{label}: each temperature must be in liquid water's range [{lo}, {hi}] K (got {T:g} K)")
+    try:
+        return Loads.model_validate(data, strict=False)
+    except ValidationError as err:
+        raise AssessError(describe_error(err, Loads, names)) from None
+
+
+def load_loads(path: str | os.PathLike) -> Loads:
+    """Read a loads TOML file; :class:`AssessError` naming the file for a missing or invalid one."""
+    data = read_toml(path, "loads", AssessError)
+    try:
+        return loads_from_dict(data)
+    except AssessError as err:
+        raise AssessError(f"{path}: {err}") from None

@@ -1,0 +1,106 @@
+"""`hydrojam assess`: bad loads refused before any work (exit 2, one line, nothing written), the
+report from Python and from the command line, and its plain-words conclusion."""
+
+import json
+
+import pytest
+
+from hydrojam import Design, write_design
+from hydrojam.assess.assessment import assess
+from hydrojam.assess.report import conclusion, write_report
+from hydrojam.assess.spec import AssessError, Loads, loads_from_dict
+from hydrojam.cli import main
+
+QUICK = Design(particle_layers=1, mesh={"size": 4.0})
+
+
+@pytest.fixture
+def design_file(tmp_path):
+    path = tmp_path / "design.toml"
+    write_design(path, QUICK)
+    return path
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--max-force", "-1"], "--max-force: input should be greater than 0"),
+    (["--max-force", "nan"], "--max-force: must be a finite number"),
+    (["--vacuum-kpa", "150"], "--vacuum-kpa: input should be less than or equal to 101.325"),
+    (["--temperatures", "250,275"], "--temperatures: each temperature must be in liquid water's range"),
+    (["--temperatures", "cold"], "--temperatures: expected comma-separated numbers"),
+])
+def test_bad_loads_are_refused_before_any_work(tmp_path, design_file, capsys, args, words):
+    out = tmp_path / "out"
+    assert main(["assess", str(design_file), "-o", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    assert words in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_unknown_key_in_a_loads_file_is_refused(tmp_path, design_file, capsys):
+    loads = tmp_path / "loads.toml"
+    loads.write_text("vacuum_presure = 50\n")
+    out = tmp_path / "out"
+    assert main(["assess", str(design_file), "-o", str(out), "--loads", str(loads)]) == 2
+    err = capsys.readouterr().err
+    assert "vacuum_presure: unknown key (allowed: max_force, temperatures, vacuum_pressure" in err
+    assert not out.exists()
+    with pytest.raises(AssessError, match="baseline_particles.shear_modulus"):
+        loads_from_dict({"baseline_particles": {"shear_modulus": -1}})
+
+
+def test_assess_from_the_command_line_writes_the_report(tmp_path, design_file, capsys):
+    """Stiffness part only (no blocked force, no vacuum): report.md, assessment.json (no NaN),
+    the figures; exit status 0."""
+    loads = tmp_path / "loads.toml"
+    loads.write_text("blocking = false\nvacuum = false\n")
+    out = tmp_path / "out"
+    assert main(["assess", str(design_file), "-o", str(out), "--loads", str(loads), "-q"]) == 0
+    report = (out / "report.md").read_text()
+    assert "stiffness ratio" in report and "## Conclusion" in report
+    values = json.loads((out / "assessment.json").read_text())["values"]
+    assert values["stiffness_ratio"] > 1.0
+    assert values["swelling_pressure"] > 100 * values["contact_pressure_mean"] > 0
+    assert (out / "load_deflection.png").stat().st_size > 0 and (out / "confinement.png").stat().st_size > 0
+
+
+@pytest.mark.slow
+def test_full_assessment_of_a_one_layer_actuator(tmp_path):
+    """Every part, from Python: the blocked force falls with T (the gel swells less), the vacuum
+    baseline stiffens the chamber, and the conclusion names the reported 9x-30x range and says
+    whether the wall holds the gel."""
+    a = assess(QUICK, Loads(temperatures=(275.0, 295.0)))
+    v = a.values
+    assert a.blocked[0]["force_x_N_per_mm"] > a.blocked[1]["force_x_N_per_mm"] > 0
+    assert v["stiffness_ratio_vacuum"] > 1.0 and v["vacuum_pressure_kPa"] > 0
+    text = " ".join(conclusion(a))
+    assert "9x-30x" in text and "does not hold the gel" in text
+    write_report(a, tmp_path)
+    assert (tmp_path / "blocked_force.png").exists()
+
+
+@pytest.mark.slow
+def test_design_map_runs_as_a_cached_sweep(tmp_path):
+    """Two membranes as a study sweep: one row per point with the map's values, the figure; a
+    stiffer membrane presses harder on the particles; a rerun loads the points from the cache."""
+    from hydrojam.assess.design_map import MODULUS, design_map
+
+    rows = design_map(QUICK, [2.0], [0.023, 0.2], tmp_path, workers=1)
+    assert [r[MODULUS] for r in rows] == [0.023, 0.2]
+    assert rows[1]["contact_pressure_mean"] > rows[0]["contact_pressure_mean"] > 0
+    assert (tmp_path / "design_map.png").exists()
+    seen = []
+    design_map(QUICK, [2.0], [0.023, 0.2], tmp_path, workers=1, on_point=lambda o, d, n: seen.append(o.cached))
+    assert seen == [True, True]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--thickness", "1,-2"], "--thickness: each value must be a finite number > 0 mm"),
+    (["--modulus", "0.02,soft"], "--modulus: expected comma-separated numbers in MPa"),
+    (["--workers", "0"], "--workers: must be >= 1"),
+])
+def test_design_map_refuses_bad_ranges_before_any_work(tmp_path, design_file, capsys, args, words):
+    out = tmp_path / "out"
+    assert main(["design-map", str(design_file), "-o", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    assert words in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
