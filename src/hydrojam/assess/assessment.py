@@ -18,6 +18,7 @@ from hydrojam.assess.chamber import actuator_structure, blocked_actuation, vacuu
 from hydrojam.assess.confinement import confined_swelling_pressure, wall_contact_pressure
 from hydrojam.assess.loading import TipCurve, tangent_stiffness, tip_curve
 from hydrojam.assess.spec import Loads
+from hydrojam.assess.speed import swelling_time
 
 #: the default largest tip force deflects the unactuated actuator by this share of its length
 #: (at its tangent stiffness): past the linear range, short of folding it
@@ -62,7 +63,9 @@ def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], 
     as-prepared (s = 0) state a tip load-deflection curve in +x and -x up to ``loads.max_force``
     and the tangent stiffness there; the blocked force at each of ``loads.temperatures``; the
     vacuum-jamming baseline at ``loads.vacuum_pressure``; and the confinement (mean and largest
-    contact pressure on the membrane against the gel's confined swelling pressure).
+    contact pressure on the membrane against the gel's confined swelling pressure); and how fast:
+    the swollen particles' diffusion-limited swelling time (and, for a design with a temperature
+    schedule, the run's time to 90% of its final angle).
     ``on_progress(message)`` says what starts (the long parts take minutes)."""
     check_supported(design)
     say = on_progress or (lambda message: None)
@@ -85,6 +88,13 @@ def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], 
     v.update(bending_angle_deg=run.metrics["bending_angle_deg"], tip_dx_mm=run.metrics["tip_dx_mm"],
              tip_dz_mm=run.metrics["tip_dz_mm"], actuation_converged=run.converged,
              actuation_newton_iterations=run.newton_iterations, actuation_wall_time_s=time.perf_counter() - t)
+    ratio = run.metrics["mean_swelling_ratio"]
+    if ratio is not None and ratio > 0:
+        # the swollen particle sets the diffusion time (Tanaka & Fillmore take the final radius)
+        radius = 0.5 * design.particle_diameter * ratio ** (1.0 / design.dimension)
+        tau, t90 = swelling_time(radius, design.hydrogel.diffusivity, design.dimension)
+        v.update(particle_time_constant_s=tau, particle_swelling_t90_s=t90,
+                 angle_t90_s=run.metrics.get("time_to_90_percent_angle_s"))
     x1 = run.final.x
     out.states["actuated"] = x1
     unactuated, actuated = actuator_structure(model, 0.0), actuator_structure(model, 1.0)

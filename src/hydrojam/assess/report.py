@@ -13,6 +13,7 @@ from matplotlib.figure import Figure
 from hydrojam._io import atomic_path, make_folder, write_text_atomic
 from hydrojam.actuator.design import design_to_toml
 from hydrojam.assess.assessment import Assessment
+from hydrojam.assess.speed import duration
 
 #: bending-stiffness gains the authors' later work reports for active particle jamming
 REPORTED_GAIN = (9.0, 30.0)
@@ -104,6 +105,13 @@ def conclusion(a: Assessment) -> list[str]:
                         f"The wall does not hold the gel: the particles swell almost freely (mean swelling ratio "
                         f"{v['mean_swelling_ratio']:.3g}); the contact pressure is what the membrane gives, not what the "
                         f"gel could exert."))
+    if v.get("particle_swelling_t90_s") is not None:
+        line = (f"Speed: a free particle of this swollen size makes 90% of its swelling in "
+                f"{duration(v['particle_swelling_t90_s'])} (tau = {duration(v['particle_time_constant_s'])} at "
+                f"D = {a.design.hydrogel.diffusivity:g} mm^2/s); time falls with the square of the bead's size.")
+        if v.get("angle_t90_s") is not None:
+            line += f" This run's angle made 90% of its change in {duration(v['angle_t90_s'])}."
+        lines.append(line)
     if a.blocked:
         F = [(b["temperature_K"], b["force_x_N_per_mm"]) for b in a.blocked]
         lines.append("Blocked force: " + ", ".join(f"{1e3 * f:.3g} mN/mm at {T:g} K" for T, f in F)
@@ -133,7 +141,9 @@ def write_report(a: Assessment, out: str | os.PathLike) -> Path:
             ("max tip force of the curves", _f(v["max_force"]), "N/mm"),
             ("contact pressure on the membrane, mean / max", f"{_f(1e3 * v['contact_pressure_mean'])} / {_f(1e3 * v['contact_pressure_max'])}", "kPa"),
             ("confined swelling pressure of the gel", _f(1e3 * v["swelling_pressure"], 4), "kPa"),
-            ("mean swelling ratio of the particles", _f(v["mean_swelling_ratio"]), "-")]
+            ("mean swelling ratio of the particles", _f(v["mean_swelling_ratio"]), "-"),
+            ("particle swelling time t90 (tau)", f"{duration(v.get('particle_swelling_t90_s'))} "
+             f"({duration(v.get('particle_time_constant_s'))})", "-")]
     lines = [f"# hydrojam assessment: are these active particles suitable for jamming?", "",
              f"Design: {d.particle_layers} layer{'s' if d.particle_layers != 1 else ''} of {d.particle_diameter:g} mm particles, membrane G = "
              f"{d.membrane.shear_modulus:g} MPa, t0 = {d.side_wall_thickness:g} mm, strain-limit layer h = "
