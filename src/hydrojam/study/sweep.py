@@ -12,6 +12,10 @@ Layout of an output folder ``OUT``::
         error.txt           the traceback of a failed point
     results.csv             one row per (sweep, point), see :class:`SweepTable`
     results.parquet         the same, typed columns, nulls for undefined values
+    replicas.csv            with replicas (a design's ``replicas.count`` > 1): one row per run
+
+A point whose design asks for N replicas is N runs (:meth:`hydrojam.study.spec.Study.points`),
+each its own design and folder; its row holds their mean and spread (:func:`build_table`).
 
 ``point.json``: ``{"key", "status": "ok" | "not_converged" | "failed", "error", "metrics",
 "wall_time_s", "point_time_s", "hydrojam_version"}``; ``wall_time_s`` is the wall time the point
