@@ -384,7 +384,11 @@ def _run_summary(title: str, metrics: dict) -> Table:
 
 
 def _point_label(outcome) -> str:
+    from hydrojam.study.replicas import REPLICA_STUDY
+
     p = outcome.points[0]
+    if p.sweep == REPLICA_STUDY and list(p.values) == ["replicas.count"]:  # `hydrojam run --replicas`
+        return f"replica {p.replica}"
     values = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in p.values.items())
     replica = f" replica {p.replica}" if p.replicas > 1 else ""
     return f"{p.sweep}[{p.index}]{replica} {values}"

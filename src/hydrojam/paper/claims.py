@@ -238,7 +238,7 @@ def check_claim(claim: Claim, table) -> ClaimResult:
         text += " (" + "; ".join(notes) + ")"
     if claim.lists_values:
         for s in series:
-            values = ", ".join(f"{p:g}: {s.fmt(s.values[p])}" for p in s.usable())
+            values = ", ".join(f"{p:g}: {s.at_text(p)}" for p in s.usable())
             text += f"; {s.name} by {sweep.symbol} {values}" if values else ""
     if not jointly:  # a joint check reads only the range's end points, which it names
         text += _skipped(series)
