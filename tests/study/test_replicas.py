@@ -242,6 +242,7 @@ def test_real_replicas_through_the_cli(capsys, tmp_path):
         folder = out / run["point_dir"]
         metrics = json.loads((folder / "metrics.json").read_text())
         assert stats["metrics"]["bending_angle_deg"]["values"][k] == metrics["bending_angle_deg"]
+        assert (metrics["provenance"]["replica"], metrics["provenance"]["seed"]) == (k, 4 if k else None)
         refs.append(meshio.read(folder / "final.vtu").points)
     moved = np.linalg.norm(refs[1] - refs[0], axis=1)
     assert 0.0 < moved.max() <= 0.1 * 0.1 * (1 + 1e-9)  # only the particle moved, within jitter x c
