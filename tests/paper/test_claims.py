@@ -146,7 +146,9 @@ def test_spread_small_keeps_the_verdicts_large_leaves_them_open():
     keys = ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index")
     small = pclaims.check_claims(with_spread(rows, dict.fromkeys(keys, 0.01)))
     assert [r.verdict for r in small] == ["agree"] * len(small)
-    large = pclaims.check_claims(with_spread(rows, dict.fromkeys(keys, 100.0)))
+    large = [dict(r, curling_index_min=0.0, curling_index_max=1.0)  # every replica's index in [0, 1]
+             for r in with_spread(rows, dict.fromkeys(keys, 100.0))]
+    large = pclaims.check_claims(large)
     for res in large:
         assert res.verdict == pclaims.SPREAD_VERDICT, (res.claim.id, res.summary)
         assert "±" in res.summary and pclaims.SPREAD_VERDICT in res.summary
@@ -156,3 +158,14 @@ def test_spread_small_keeps_the_verdicts_large_leaves_them_open():
     wrong = [dict(r, bending_angle_deg_std=0.0) if r["stimulus.temperature"] in (280.0, 285.0) else r for r in wrong]
     res = {r.claim.id: r for r in pclaims.check_claims(wrong)}["T-angle"]
     assert res.verdict == "disagree", res.summary
+
+
+def test_a_replica_reversing_its_rotation_makes_the_curling_index_unusable():
+    """The mean curling index of a point is not used when a replica's index lies outside [0, 1]."""
+    from paper_synthetic import with_spread
+
+    rows = with_spread(layer_rows(), {"curling_index": 0.01})
+    rows = [dict(r, curling_index_min=-0.4) if r["particle_layers"] == 12 else r for r in rows]
+    res = {r.claim.id: r for r in pclaims.check_claims(rows)}["PL-curling"]
+    assert "12 (curling index of a replica outside [0, 1] (-0.40 to 0.72" in res.summary
+    assert res.verdict == "agree"  # the other points still show the transition

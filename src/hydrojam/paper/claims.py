@@ -370,6 +370,11 @@ def _series(rows: Sequence[dict], sweep: PaperSweep, key: str, magnitude: bool, 
         elif key == "curling_index" and not 0.0 <= v <= 1.0:
             # the rotation reverses along the actuator (an S shape): neither bending nor curling
             problems[p] = f"curling index {v:.2f} outside [0, 1] (the rotation reverses along the actuator)"
+        elif key == "curling_index" and not 0.0 <= (number(row.get(f"{key}_min")) or 0.0) <= (
+                number(row.get(f"{key}_max")) or 0.0) <= 1.0 and number(row.get(f"{key}_max")) is not None:
+            # a replica's S shape: a mean over it would mix curling with reversal
+            problems[p] = (f"curling index of a replica outside [0, 1] ({number(row.get(f'{key}_min')):.2f} to "
+                           f"{number(row.get(f'{key}_max')):.2f}: the rotation reverses along the actuator)")
         else:
             values[p] = abs(v) if magnitude else v
             spreads[p] = number(row.get(f"{key}_std")) or 0.0
