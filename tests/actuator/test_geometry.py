@@ -97,7 +97,7 @@ def test_circle_gaps_stay_above_the_bound_analytically():
     d = replica(1)
     r0 = D / 2
     half_w, top, bottom = d.resolved_cavity_width / 2, -d.end_wall_thickness, -d.end_wall_thickness - d.resolved_cavity_length
-    for k in range(1, 200):
+    for k in range(1, 201):
         x = particle_centres(d) + replica_offsets(replica(k, seed=3))
         gaps = [np.linalg.norm(x[i] - x[j]) - 2 * r0 for i in range(len(x)) for j in range(i)]
         assert min(gaps) >= (1 - 2 * MAX_JITTER) * C * (1 - 1e-9)

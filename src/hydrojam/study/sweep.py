@@ -54,6 +54,7 @@ from hydrojam._validation import owner_model
 from hydrojam.actuator.design import Design, DesignError
 from hydrojam.actuator.metrics import STATE_METRICS, metric
 from hydrojam.study.spec import Point, Study, StudyError, write_study
+from hydrojam.study.spread import spread
 
 #: seconds to wait for a dask scheduler given by address
 CONNECT_TIMEOUT_S = 10.0
@@ -318,7 +319,7 @@ def build_table(study: Study, records: dict[str, dict]) -> SweepTable:
     for points in groups.values():
         p = points[0]
         recs = [records.get(q.key) or {"status": "failed", "error": "no outcome recorded"} for q in points]
-        row = _point_row(study, p, varied)
+        row = _point_row(p, varied)
         row.update(_aggregate(recs, [q.replica for q in points], replicated))
         row["point_dir"] = f"points/{p.key}"
         if replicated:
@@ -327,7 +328,7 @@ def build_table(study: Study, records: dict[str, dict]) -> SweepTable:
     return SweepTable(rows, columns)
 
 
-def _point_row(study: Study, p: Point, varied: list[str]) -> dict[str, Any]:
+def _point_row(p: Point, varied: list[str]) -> dict[str, Any]:
     """The head of a point's row: sweep, point, key and the varied fields' values (resolved)."""
     resolved = p.design.resolved()
     row: dict[str, Any] = {"sweep": p.sweep, "point": p.index, "key": p.key}
@@ -339,8 +340,6 @@ def _point_row(study: Study, p: Point, varied: list[str]) -> dict[str, Any]:
 
 def _aggregate(recs: list[dict], replicas: list[int], replicated: bool) -> dict[str, Any]:
     """The metric and tail columns of a point from its replicas' records (see :func:`build_table`)."""
-    from hydrojam.study.spread import spread
-
     statuses = [r.get("status") for r in recs]
     if len(recs) == 1:
         used = [0] if recs[0].get("metrics") else []
@@ -383,7 +382,7 @@ def replica_table(study: Study, records: dict[str, dict]) -> SweepTable:
     rows = []
     for p in study.points():
         rec = records.get(p.key) or {"status": "failed", "error": "no outcome recorded"}
-        row = _point_row(study, p, varied)
+        row = _point_row(p, varied)
         row["replica"] = p.replica
         row = {c: row[c] for c in columns if c in row}
         row.update(_aggregate([rec], [p.replica], False))
