@@ -218,6 +218,9 @@ def run_design(
     overrides: list[str] = typer.Option([], "--set", help="Change a field, e.g. --set stimulus.temperature=295 (repeatable)."),
     vtu: bool = typer.Option(True, "--vtu/--no-vtu", help="Write a VTU file per load step and the .pvd index."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    replicas: Optional[int] = typer.Option(None, "--replicas", help="Run N replicas in parallel (jittered particle centres, see docs/replicas.md); default: the design's replicas.count."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="With replicas: local worker processes, one thread each (default: one per CPU)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="With replicas: address of a running dask scheduler, e.g. tcp://10.0.0.5:8786."),
 ) -> None:
     """Simulate one actuator along its stimulus path and write its results to OUT.
 
@@ -225,6 +228,11 @@ def run_design(
     results.pvd (ParaView) and final.png; with stimulus.schedule (a time-resolved temperature) also
     angle_time.png, the bending angle against time. Exit status 0 when the target stimulus was reached, 1
     when the solver stopped early (the results then hold the last converged state), 2 on bad input.
+
+    With N > 1 replicas (--replicas or replicas.count) they run in parallel like a sweep's points,
+    resumable: OUT gets points/<key>/ per replica (final.vtu), replicas.csv, and summary.csv and
+    summary.json (mean, standard deviation, min, max of every metric, and which replica gave which);
+    exit status 1 when a replica failed or stopped early.
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -232,11 +240,20 @@ def run_design(
     from hydrojam.actuator.results import ResultWriter
     from hydrojam.actuator.simulate import simulate
 
+    replicas = _check_replicas(replicas)
     if not design_file.is_file():
         raise InputError(f"{design_file}: no such design file")
     design = _design_or_exit(design_file, overrides)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out: {out} exists and is not a folder")
+    design = _with_replicas_or_exit(design, replicas)
+    if design.replicas.count > 1:
+        _check_workers(workers, scheduler, out)
+        _run_replicas(design, design_file, out, workers, scheduler, quiet)
+        return
+    if workers is not None or scheduler is not None:
+        raise InputError(f"{'--workers' if workers is not None else '--scheduler'}: only with --replicas N > 1 "
+                         "(a single run is one process)")
     make_folder(out)  # before meshing: a folder that cannot be made is refused at once
     console = Console(stderr=True)
     model = build_model(design)
@@ -277,6 +294,73 @@ def run_design(
         console.print(f"[yellow]hydrojam: warning: {result.message}[/yellow]")
 
 
+def _check_replicas(replicas: Optional[int]) -> Optional[int]:
+    """``--replicas`` refused outside [1, MAX_REPLICAS] (one line, exit 2)."""
+    from hydrojam.actuator.design import MAX_REPLICAS
+
+    if replicas is not None and not 1 <= replicas <= MAX_REPLICAS:
+        raise InputError(f"--replicas: must be in [1, {MAX_REPLICAS}] (got {replicas})")
+    return replicas
+
+
+def _with_replicas_or_exit(design, replicas: Optional[int]):
+    """The design with ``--replicas`` applied (None: as it is)."""
+    from hydrojam.actuator.design import DesignError, with_replicas
+
+    if replicas is None:
+        return design
+    try:
+        return with_replicas(design, replicas)
+    except DesignError as err:
+        raise InputError(f"--replicas: {err}") from None
+
+
+def _run_replicas(design, design_file: Path, out: Path, workers, scheduler, quiet: bool) -> None:
+    """`hydrojam run` of N > 1 replicas: run them, print the summary table, exit 1 on a failure."""
+    from hydrojam.study.replicas import run_replicas
+
+    summary = []
+
+    def run_points(on_point):
+        table, s = run_replicas(design, out, workers=workers, scheduler=scheduler, on_point=on_point)
+        summary.append(s)
+        return table
+
+    def after():
+        if quiet or not summary:
+            return
+        console = Console(stderr=True)
+        console.print(_replica_summary(f"hydrojam run: {design_file.name}, {design.replicas.count} replicas -> {out}",
+                                       summary[0]))
+        console.print(f"summary: {out / 'summary.csv'} and {out / 'summary.json'}; per replica: "
+                      f"{out / 'replicas.csv'}", soft_wrap=True)
+
+    _run_with_progress(run_points, out, quiet, after=after)
+
+
+def _replica_summary(title: str, summary) -> Table:
+    """The summary table of replicas: per metric mean ± std, min and max with their replicas."""
+    from hydrojam.actuator.metrics import metric
+
+    table = Table(title=title)
+    table.add_column("metric", no_wrap=True, min_width=len("contacts_per_particle"))
+    for col in ("mean", "std", "min (replica)", "max (replica)", "n"):
+        table.add_column(col, justify="right")
+    table.add_column("unit")
+
+    def num(v):
+        return "—" if v is None else f"{v:.4g}"
+
+    for name in ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index", "packing_fraction",
+                 "contacts_per_particle", "newton_iterations", "wall_time_s"):
+        sp = summary.stats[name]
+        table.add_row(name, num(sp.mean), num(sp.std), f"{num(sp.min)} (#{sp.argmin})" if sp.n else "—",
+                      f"{num(sp.max)} (#{sp.argmax})" if sp.n else "—", f"{sp.n}/{summary.count}", metric(name).unit)
+    table.caption = (f"seed {summary.design.replicas.seed}, jitter {summary.design.replicas.jitter:g} x clearance; "
+                     f"wall time {summary.wall_time_s:.1f} s (replicas in parallel), summed {summary.compute_time_s:.1f} s")
+    return table
+
+
 #: the metrics of `hydrojam run`'s summary table, in its order (units and meanings from the registry)
 RUN_SUMMARY = ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index", "packing_fraction",
                "contacts_per_particle", "converged", "stabilisation_released", "newton_iterations", "wall_time_s")
@@ -303,9 +387,14 @@ def _run_summary(title: str, metrics: dict) -> Table:
 
 
 def _point_label(outcome) -> str:
+    from hydrojam.study.replicas import REPLICA_STUDY
+
     p = outcome.points[0]
+    if p.sweep == REPLICA_STUDY and list(p.values) == ["replicas.count"]:  # `hydrojam run --replicas`
+        return f"replica {p.replica}"
     values = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in p.values.items())
-    return f"{p.sweep}[{p.index}] {values}"
+    replica = f" replica {p.replica}" if p.replicas > 1 else ""
+    return f"{p.sweep}[{p.index}]{replica} {values}"
 
 
 @app.command()
@@ -315,6 +404,7 @@ def sweep(
     workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes, one thread each (default: one per CPU)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of a running dask scheduler, e.g. tcp://10.0.0.5:8786."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
+    replicas: Optional[int] = typer.Option(None, "--replicas", help="Replicas per point (the table holds their mean and spread); default: the base design's replicas.count."),
 ) -> None:
     """Run every point of a study in parallel (dask), cached in OUT/points/, and write the table.
 
@@ -326,6 +416,7 @@ def sweep(
     from hydrojam.study.spec import load_study
     from hydrojam.study.sweep import run_sweep
 
+    replicas = _check_replicas(replicas)
     _check_workers(workers, scheduler, out)
     if not study_file.is_file():
         raise InputError(f"{study_file}: no such study file")
@@ -333,13 +424,18 @@ def sweep(
         study = load_study(study_file)
     except DesignError as err:
         raise InputError(str(err)) from None
+    if replicas is not None:
+        try:
+            study = study.with_replicas(replicas)
+        except DesignError as err:
+            raise InputError(f"--replicas: {err}") from None
     _run_with_progress(lambda on_point: run_sweep(study, out, workers=workers, scheduler=scheduler,
                                                   on_point=on_point), out, quiet)
 
 
-def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False) -> None:
+def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False, after=None) -> None:
     """Run ``run_points(on_point)`` (a sweep) under a progress bar over points, print the summary
-    and exit 1 when a point failed or stopped early."""
+    (then call ``after()``) and exit 1 when a point failed or stopped early."""
     import time
 
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -392,6 +488,8 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False)
         console.print(f"table: {out / 'results.csv'} and {out / 'results.parquet'}", soft_wrap=True)
         if report:
             console.print(f"report: {result[1]} (figures in {out / 'figures'})", soft_wrap=True)
+    if after is not None:
+        after()
     if counts["failed"] or counts["not_converged"]:
         console.print(f"[red]hydrojam: {counts['failed']} point(s) failed and {counts['not_converged']} stopped "
                       f"early; see the status and error columns of {out / 'results.csv'} (a rerun retries the "
@@ -416,6 +514,7 @@ def reproduce(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of a running dask scheduler, e.g. tcp://10.0.0.5:8786."),
     sweep: list[str] = typer.Option([], "--sweep", help="Run only this sweep (repeatable): temperature, particle_layers, strain_limit_thickness; a later run into the same folder adds the others."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
+    replicas: int = typer.Option(1, "--replicas", help="Replicas per point: the table and figures give their mean and spread, and a statement agrees or disagrees only beyond the spread."),
 ) -> None:
     """Reproduce the paper's Section IV (2D): the temperature, particle-layer and strain-limit
     thickness sweeps, their figures and OUT/report.md (the paper's statements, agree/disagree).
@@ -426,13 +525,14 @@ def reproduce(
     from hydrojam.paper.reproduce import reproduce as run_reproduce
     from hydrojam.paper.study import paper_study
 
+    _check_replicas(replicas)
     try:
         paper_study(quick, sweep or None)
     except ValueError as err:
         raise InputError(f"--sweep: {err}") from None
     _check_workers(workers, scheduler, out)
     _run_with_progress(lambda on_point: run_reproduce(out, quick=quick, workers=workers, scheduler=scheduler,
-                                                      sweeps=sweep or None, on_point=on_point),
+                                                      sweeps=sweep or None, on_point=on_point, replicas=replicas),
                        out, quiet, report=True)
 
 

@@ -138,6 +138,13 @@ def test_write_and_load(tmp_path):
         ({"mesh": {"size": float("nan")}}, ["mesh.size", "finite"]),
         ({"clearance": 4.0}, ["clearance", "< particle_diameter/4"]),
         ({"friction": 3}, ["friction", "[0, 2]"]),
+        ({"replicas": {"count": 0}}, ["replicas.count", "[1, 1000]", "got 0"]),
+        ({"replicas": {"count": 1001}}, ["replicas.count", "[1, 1000]"]),
+        ({"replicas": {"jitter": 0.0}}, ["replicas.jitter", "(0, 0.1]"]),
+        ({"replicas": {"jitter": 0.5}}, ["replicas.jitter", "(0, 0.1]", "0.5"]),
+        ({"replicas": {"seed": -1}}, ["replicas.seed", "[0, "]),
+        ({"replicas": {"count": 2, "index": 1}}, ["replicas.index", "only with count = 1"]),
+        ({"replicas": {"colour": 1}}, ["replicas.colour: unknown key (allowed: count, seed, jitter, index)"]),
     ],
 )
 def test_refusals_name_the_field(data, expected):
@@ -240,3 +247,24 @@ def test_describe_error_unchanged_for_flat_models():
     assert describe_error(exc.value, HydrogelParams, {"n": "--nnu"}) == (
         "--nnu: input should be greater than 0; allowed range (0, 1.0] (got 0)"
     )
+
+
+def test_replicas_of_a_design():
+    """Replica k is the design as a single run (count 1, index k), seed and jitter kept; a single
+    run is its own replica 0; with_replicas sets the count and refuses what the file would."""
+    from hydrojam.actuator.design import with_replicas
+
+    d = with_replicas(default_design(), 4)
+    assert d.replicas.count == 4 and d.replicas.index == 0
+    r = d.replica(3)
+    assert (r.replicas.count, r.replicas.index, r.replicas.seed, r.replicas.jitter) == (1, 3, 0, d.replicas.jitter)
+    assert r.model_copy(update={"replicas": d.replicas}) == d
+    assert default_design().replica(0) is not None and default_design().replica(0) == default_design()
+    for bad in (-1, 4, True, 1.0):
+        with pytest.raises(ValueError, match=r"replica: must be an integer in \[0, 3\]"):
+            d.replica(bad)
+    for bad in (0, 1001, 2.0):
+        with pytest.raises(DesignError, match=r"^replicas.count: must be an integer in \[1, 1000\]"):
+            with_replicas(default_design(), bad)
+    with pytest.raises(DesignError, match=r"^replicas.index"):
+        with_replicas(r, 2)

@@ -136,3 +136,17 @@ class Table:
 
     def select(self, sweep):
         return [r for r in self.rows if r["sweep"] == sweep]
+
+
+def with_spread(rows, std: dict[str, float], replicas: int = 4) -> list[dict]:
+    """Copies of rows as replicated points: ``<metric>_std`` = std[metric] at every point, the
+    range mean ± 2 std, ``replicas`` run and all of them used."""
+    out = []
+    for r in rows:
+        r = dict(r, replicas=replicas, replicas_used=replicas)
+        for key, sd in std.items():
+            v = r.get(key)
+            r[f"{key}_std"] = sd
+            r[f"{key}_min"], r[f"{key}_max"] = (None, None) if v is None else (v - 2 * sd, v + 2 * sd)
+        out.append(r)
+    return out

@@ -110,3 +110,62 @@ def test_interior_failure_is_skipped_and_named():
     res = {r.claim.id: r for r in pclaims.check_claims(rows)}
     assert res["PL-dx"].verdict == "agree"
     assert "skipped 13 (failed)" in res["PL-dx"].summary
+
+
+# -------------------------------------------------------------------- with replicas' spread
+
+FALLS = pclaims.Claim(id="falls", sweep="temperature", figure="-", paper="-", rule="-", quantities=("bending_angle_deg",),
+                      trends=(pclaims.Trend("falls", 275.0, 295.0),), tolerance=pclaims.ANGLE_TOL, reason="-")
+
+
+def test_a_trend_decides_only_beyond_the_spread():
+    """θ falls 75 -> 29° over 275-295 K: tol = 0.05 x 75 = 3.75°, margin 46 - 3.75 = 42.25° against
+    u = sqrt(2) s (s the standard deviation at both ends): agree for s < 42.25/sqrt(2) = 29.875°,
+    undetermined (spread) above. Rising instead (75 -> 121°, tol 0.05 x 121 = 6.05°): the margin
+    -52.05° disagrees while u < 52.05°, i.e. s < 36.805°."""
+    from paper_synthetic import with_spread
+
+    rows = temperature_rows()
+    for s, verdict in ((29.85, "agree"), (29.9, pclaims.SPREAD_VERDICT)):
+        res = pclaims.check_claim(FALLS, with_spread(rows, {"bending_angle_deg": s}))
+        assert res.verdict == verdict, (s, res.summary)
+    res = pclaims.check_claim(FALLS, with_spread(rows, {"bending_angle_deg": 29.9}))
+    assert "75.0 ± 29.9°" in res.summary and "-46.0° ± 42.3°" in res.summary
+    assert "undetermined (spread): +42.2° from the threshold, within the spread ±42.3°" in res.summary
+    rising = temperature_rows(sign=+1.0)
+    for s, verdict in ((36.79, "disagree"), (36.82, pclaims.SPREAD_VERDICT)):
+        assert pclaims.check_claim(FALLS, with_spread(rising, {"bending_angle_deg": s})).verdict == verdict, s
+
+
+def test_spread_small_keeps_the_verdicts_large_leaves_them_open():
+    """Paper-like rows with a small spread agree as without one; with a spread far above every
+    trend, no claim agrees or disagrees: each is undetermined (spread), with the numbers."""
+    from paper_synthetic import with_spread
+
+    rows = temperature_rows() + layer_rows() + thickness_rows()
+    keys = ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index")
+    small = pclaims.check_claims(with_spread(rows, dict.fromkeys(keys, 0.01)))
+    assert [r.verdict for r in small] == ["agree"] * len(small)
+    large = [dict(r, curling_index_min=0.0, curling_index_max=1.0)  # every replica's index in [0, 1]
+             for r in with_spread(rows, dict.fromkeys(keys, 100.0))]
+    large = pclaims.check_claims(large)
+    for res in large:
+        assert res.verdict == pclaims.SPREAD_VERDICT, (res.claim.id, res.summary)
+        assert "±" in res.summary and pclaims.SPREAD_VERDICT in res.summary
+    # a part that clearly disagrees still decides the claim, whatever another part's spread
+    wrong = with_values(with_spread(temperature_rows(), {"bending_angle_deg": 100.0}),
+                        bending_angle_deg={285.0: 500.0})
+    wrong = [dict(r, bending_angle_deg_std=0.0) if r["stimulus.temperature"] in (280.0, 285.0) else r for r in wrong]
+    res = {r.claim.id: r for r in pclaims.check_claims(wrong)}["T-angle"]
+    assert res.verdict == "disagree", res.summary
+
+
+def test_a_replica_reversing_its_rotation_makes_the_curling_index_unusable():
+    """The mean curling index of a point is not used when a replica's index lies outside [0, 1]."""
+    from paper_synthetic import with_spread
+
+    rows = with_spread(layer_rows(), {"curling_index": 0.01})
+    rows = [dict(r, curling_index_min=-0.4) if r["particle_layers"] == 12 else r for r in rows]
+    res = {r.claim.id: r for r in pclaims.check_claims(rows)}["PL-curling"]
+    assert "12 (curling index of a replica outside [0, 1] (-0.40 to 0.72" in res.summary
+    assert res.verdict == "agree"  # the other points still show the transition

@@ -41,3 +41,31 @@ def test_report(study_dir):
     # the four temperature claims (295 K failed, 2 points left) and h-displacement (nothing in 10-12 mm)
     assert verdicts.count("**undetermined**") == 5
     assert verdicts.count("**disagree**") == 2
+
+
+def test_report_and_trends_with_replicas(study_dir, tmp_path):
+    """Replicated points: the trend figures draw their spread, the tables give mean ± standard
+    deviation and replicas used, the verdicts count 'undetermined (spread)', the rule is stated."""
+    from paper_synthetic import Table, with_spread, write_point
+
+    from hydrojam.actuator.design import with_replicas
+
+    _, table = study_dir
+    rows = with_spread(table.rows, {"bending_angle_deg": 40.0, "tip_dx_mm": 0.5, "tip_dz_mm": 0.5,
+                                    "curling_index": 0.01})
+    out = tmp_path / "out"
+    for r in rows:
+        if r["status"] != "failed":
+            write_point(out, r, bend=-0.3)
+    replicated = Table(rows)
+    for s in pstudy.PAPER_SWEEPS:
+        pfigures.plot_trends(replicated.select(s.name), s.field, tmp_path / f"{s.name}.png", s.label, s.unit)
+        assert (tmp_path / f"{s.name}.png").read_bytes()[:8] == PNG_MAGIC
+    text = preport.write_report(out, replicated, quick=True, wall_time_s=60.0,
+                                base=with_replicas(pstudy.paper_base(True), 4)).read_text(encoding="utf-8")
+    assert "Replicas: 4 per point (`--replicas 4`)" in text and "`hydrojam reproduce --quick --replicas 4`" in text
+    assert "| 275 | 75.0 ± 40.0 | -50.0 ± 0.5 | -12.0 ± 0.5 | 0.50 ± 0.01 | 4/4 |" in text
+    results = pclaims.check_claims(replicated)
+    n_spread = sum(r.verdict == pclaims.SPREAD_VERDICT for r in results)
+    assert n_spread >= 1 and f"{n_spread} {pclaims.SPREAD_VERDICT}." in text
+    assert f"**{pclaims.SPREAD_VERDICT}**" in text and "u = √(s_a² + s_b²)" in text

@@ -35,13 +35,17 @@ __all__ = [
     "DesignError",
     "ElastomerSpec",
     "GelSpec",
+    "MAX_JITTER",
+    "MAX_REPLICAS",
     "MeshSpec",
+    "ReplicaSpec",
     "StimulusSpec",
     "apply_overrides",
     "default_design",
     "design_from_dict",
     "design_to_toml",
     "load_design",
+    "with_replicas",
     "write_design",
 ]
 
@@ -212,6 +216,50 @@ class MeshSpec(BaseModel):
     size: float = Field(2.0, gt=0, description="target element edge length, quadratic elements [mm]")
 
 
+#: most replicas of one design (each is a full simulation)
+MAX_REPLICAS = 1000
+#: largest jitter of a particle centre, as a share of the clearance c: two neighbours moving
+#: toward each other by 0.1 c each keep a gap of 0.8 c, the contact barrier's activation distance
+#: (hydrojam.actuator.model.DHAT_PER_CLEARANCE), so every replica starts stress-free
+MAX_JITTER = 0.1
+#: largest seed (TOML integers are signed 64-bit)
+MAX_SEED = 2**63 - 1
+
+
+class ReplicaSpec(BaseModel):
+    """Replicas: the same design run ``count`` times, each with its own seeded perturbation of
+    the as-prepared state (docs/replicas.md).
+
+    Replica k (0-based) moves every particle's centre rigidly by an offset drawn uniformly from
+    a disk of radius ``jitter`` x clearance, from the random stream of (``seed``, k); replica 0
+    is the design as drawn (no offset), so one replica is the plain run. A single run is the
+    replica ``index`` (0 unless the file is one replica of a set, as the replica's folder holds
+    it); ``index`` > 0 only with ``count`` = 1.
+    """
+
+    model_config = _CONFIG
+
+    count: int = Field(1, ge=1, le=MAX_REPLICAS, description="replicas to run; 1: the design alone [-]")
+    seed: int = Field(0, ge=0, le=MAX_SEED, description="seed of the replicas' perturbations [-]")
+    jitter: float = Field(
+        MAX_JITTER, gt=0, le=MAX_JITTER,
+        description="largest particle-centre offset as a share of the clearance (<= 0.1: every gap stays >= "
+        "the barrier's activation distance 0.8 c) [-]",
+    )
+    index: int = Field(
+        0, ge=0, le=MAX_REPLICAS - 1,
+        description="which replica a single run is: 0 the design as drawn, k > 0 perturbed from (seed, k); "
+        "> 0 only with count = 1 [-]",
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> ReplicaSpec:
+        if self.index > 0 and self.count != 1:
+            raise ValueError(f"index: > 0 only with count = 1 (a set of {self.count} replicas runs indices "
+                             f"0 to {self.count - 1}; got index {self.index})")
+        return self
+
+
 class Design(BaseModel):
     """A particle-jamming bending actuator: geometry, materials, stimulus and mesh (DESIGN.md 6).
 
@@ -271,6 +319,10 @@ class Design(BaseModel):
     )
     stimulus: StimulusSpec = Field(StimulusSpec(), description="target stimulus and load path")
     mesh: MeshSpec = Field(MeshSpec(), description="finite-element mesh")
+    replicas: ReplicaSpec = Field(
+        ReplicaSpec(), description="replicas: the design run several times from seeded perturbations of "
+        "its as-prepared particle positions (docs/replicas.md)"
+    )
 
     # ---------------------------------------------------------------- derived geometry
 
@@ -317,6 +369,17 @@ class Design(BaseModel):
             update["stimulus"] = self.stimulus.model_copy(update={"temperature": self.stimulus.schedule[-1][1]})
         return self.model_copy(update=update)
 
+    def replica(self, k: int) -> Design:
+        """Replica ``k`` of this design (0 <= k < replicas.count) as a single run: the same design
+        with ``replicas`` count 1 and index k (seed and jitter kept); a single run (count 1) is its
+        own replica 0. ValueError outside the range."""
+        n = self.replicas.count
+        if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < n:
+            raise ValueError(f"replica: must be an integer in [0, {n - 1}] (got {k!r})")
+        if n == 1:
+            return self
+        return self.model_copy(update={"replicas": self.replicas.model_copy(update={"count": 1, "index": k})})
+
     # ---------------------------------------------------------------- consistency
 
     @model_validator(mode="after")
@@ -360,6 +423,17 @@ class Design(BaseModel):
 
 
 # -------------------------------------------------------------------- reading
+
+
+def with_replicas(design: Design, count: int) -> Design:
+    """The design with ``replicas.count`` set to ``count`` (1 .. MAX_REPLICAS); DesignError
+    naming ``replicas.count`` outside the range or when the design is one replica (index > 0)."""
+    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_REPLICAS:
+        raise DesignError(f"replicas.count: must be an integer in [1, {MAX_REPLICAS}] (got {count!r})")
+    if count > 1 and design.replicas.index > 0:
+        raise DesignError(f"replicas.index: the design is replica {design.replicas.index} of a set; "
+                          "replicas of it need index 0 (got index > 0 with count > 1)")
+    return design.model_copy(update={"replicas": design.replicas.model_copy(update={"count": count})})
 
 
 def default_design() -> Design:

@@ -3,6 +3,8 @@ particles drawn with gmsh through :mod:`hydrojam.fem.meshing`, and meshed. Lengt
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import gmsh
 import numpy as np
 
@@ -83,3 +85,41 @@ def mesh_design(design: Design) -> Mesh:
         design.end_wall_thickness, design.strain_limit_thickness, particle_centres(design),
         design.particle_diameter / 2, design.mesh.size, order=2,
     )
+
+
+def replica_offsets(design: Design) -> np.ndarray:
+    """The rigid offset of every particle centre of the design's replica (n_particles, dim) [mm].
+
+    Replica index 0 (``design.replicas.index``): zeros, the design as drawn. Replica k > 0: each
+    offset is uniform in a disk (2D; a ball in 3D) of radius ``replicas.jitter`` x clearance,
+    drawn particle by particle (the order of :func:`particle_centres`) from PCG64 seeded with
+    the SeedSequence of (seed, k) and read as 53-bit uniform numbers, so a replica is the same on
+    every machine and NumPy version. Neighbours then keep a gap of at least (1 - 2 jitter) c.
+    """
+    centres = particle_centres(design)
+    n, dim = centres.shape
+    spec = design.replicas
+    if spec.index == 0:
+        return np.zeros((n, dim))
+    stream = np.random.PCG64(np.random.SeedSequence([spec.seed, spec.index]))
+    u = (stream.random_raw(n * dim) >> np.uint64(11)).astype(np.float64).reshape(n, dim) * 2.0**-53
+    radius = spec.jitter * design.clearance
+    if dim == 2:
+        phi, r = 2.0 * np.pi * u[:, 0], radius * np.sqrt(u[:, 1])
+        return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+    cos_t, phi, r = 1.0 - 2.0 * u[:, 0], 2.0 * np.pi * u[:, 1], radius * np.cbrt(u[:, 2])
+    sin_t = np.sqrt(np.maximum(1.0 - cos_t**2, 0.0))
+    return r[:, None] * np.column_stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t])
+
+
+def jitter_particles(mesh: Mesh, design: Design) -> Mesh:
+    """The mesh of the design as drawn with every particle (cell group ``particle<k>``) moved
+    rigidly by its :func:`replica_offsets`: each particle keeps its own mesh, so replicas differ
+    only in where the particles start. Replica 0: the mesh itself."""
+    offsets = replica_offsets(design)
+    if not offsets.any():
+        return mesh
+    points = np.array(mesh.points)
+    for k, offset in enumerate(offsets):
+        points[np.unique(mesh.cells[mesh.cell_groups[f"particle{k}"]])] += offset
+    return replace(mesh, points=points)

@@ -18,7 +18,7 @@ from hydrojam.actuator.design import Design, DesignError
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.materials.energies import Hydrogel, Material
 from hydrojam.fem.mesh import Mesh
-from hydrojam.actuator.geometry import mesh_design
+from hydrojam.actuator.geometry import jitter_particles, mesh_design
 from hydrojam.actuator.metrics import (
     STATE_METRICS,
     bending_angle_deg,
@@ -139,7 +139,7 @@ def build_model(design: Design) -> ActuatorModel:
     """Mesh the design and set up bodies, materials, clamp, contact and the stimulus path."""
     design = design.resolved()
     check_supported(design)
-    mesh = mesh_design(design)
+    mesh = jitter_particles(mesh_design(design), design)
     el = element_for_meshio_type(mesh.cell_type)
     n_p = design.particle_layers * design.particles_per_layer
     particle_cells = [mesh.cell_groups[f"particle{k}"] for k in range(n_p)]

@@ -25,11 +25,12 @@ def _version(name: str) -> str | None:
         return None
 
 
-def run_provenance() -> dict:
+def run_provenance(replica: int = 0, seed: int | None = None) -> dict:
     """Versions (``versions``: package -> version, None where not installed), the Python and the
     machine (``python``, ``platform``), the thread and code-path variables as set (``environment``:
     name -> value, None where unset) and the seeds (``mesh_seed``: gmsh's random seed; ``seed``: the
-    particles' perturbation seed, None until replicas exist)."""
+    particles' perturbation seed of replica ``replica`` > 0, None for the design as drawn;
+    ``replica``: the replica's index, design.replicas.index)."""
     from hydrojam.fem.meshing import RANDOM_SEED
 
     return {
@@ -38,5 +39,6 @@ def run_provenance() -> dict:
         "platform": platform.platform(),
         "environment": {name: os.environ.get(name) for name in _VARIABLES},
         "mesh_seed": RANDOM_SEED,
-        "seed": None,
+        "seed": seed if replica > 0 else None,
+        "replica": replica,
     }

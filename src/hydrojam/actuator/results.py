@@ -151,7 +151,7 @@ class ResultWriter:
                           _csv(rows, ["reference_arc_length_mm", "arc_length_mm", "rotation_deg", "curvature_per_mm"]))
         metrics = finite_or_none(ordered_metrics(result.metrics))
         metrics["timings_s"] = finite_or_none(result.timings)
-        metrics["provenance"] = run_provenance()
+        metrics["provenance"] = run_provenance(model.design.replicas.index, model.design.replicas.seed)
         if plot:
             plot_actuator(model, final, self.out / "final.png")
             if getattr(model.path, "timed", False):

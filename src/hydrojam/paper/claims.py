@@ -19,6 +19,14 @@ and last points run within it (the quick study's h = 4, 8, 12 mm checks "4 to 10
 undetermined if any part is (an end point failed or did not converge, fewer than two points in a
 range), else it agrees.
 
+With replicas (a table whose points carry ``<metric>_std``, :mod:`hydrojam.study.sweep`) the
+values are the replicas' means, and a part agrees or disagrees only when it does beyond the
+spread: each comparison's distance from its threshold (e.g. v(b) - v(a) - tol for *rises*) must
+exceed the spread of what it compares, u = sqrt(s_a² + s_b²) with s the points' standard
+deviations (the spread of one filling against another, not the standard error of the means: a
+designer builds one actuator). A part within the spread is "undetermined (spread)", and so is a
+claim with such a part and no part that disagrees or is undetermined for want of points.
+
 Units: mm, K, degrees.
 """
 
@@ -42,6 +50,7 @@ __all__ = [
     "DISAGREEMENT_REASONS",
     "DISPLACEMENT_TOL",
     "LINEAR_R2",
+    "SPREAD_VERDICT",
     "PAPER_CLAIMS",
     "Trend",
     "check_claim",
@@ -57,6 +66,8 @@ DISPLACEMENT_TOL = 0.10
 CURLING_MARGIN = 0.10
 #: "linear trend": coefficient of determination of a straight-line fit at least this
 LINEAR_R2 = 0.90
+#: the verdict of a claim that the replicas' spread leaves open
+SPREAD_VERDICT = "undetermined (spread)"
 
 
 @dataclass(frozen=True)
@@ -196,7 +207,7 @@ class ClaimResult:
 
     claim: Claim
     summary: str
-    verdict: str  # "agree" | "disagree" | "undetermined"
+    verdict: str  # "agree" | "disagree" | "undetermined" | "undetermined (spread)"
 
 
 def check_claims(table) -> list[ClaimResult]:
@@ -208,10 +219,12 @@ def check_claim(claim: Claim, table) -> ClaimResult:
     """One claim checked on its sweep's rows of ``table`` (a SweepTable or a list of rows).
 
     Each trend is a part of the check on each quantity in turn ("larger_change": once, on the
-    quantities together); a part is undetermined where its points are missing or unusable. The
+    quantities together); a part is undetermined where its points are missing or unusable, and
+    undetermined (spread) where the replicas' spread covers its margin (module docstring). The
     verdict: "disagree" if any part disagrees, else "undetermined" if any part is (or there is
-    none), else "agree". The summary gives each part's numbers and the rule it applied, the
-    ranges checked on other points than the paper's, and the points skipped (why).
+    none), else "undetermined (spread)" if any part is, else "agree". The summary gives each
+    part's numbers (mean ± standard deviation with replicas) and the rule it applied, the ranges
+    checked on other points than the paper's, and the points skipped (why).
     """
     sweep = paper_sweep(claim.sweep)
     rows = rows_of(table, claim.sweep)
@@ -225,14 +238,16 @@ def check_claim(claim: Claim, table) -> ClaimResult:
         text += " (" + "; ".join(notes) + ")"
     if claim.lists_values:
         for s in series:
-            values = ", ".join(f"{p:g}: {s.fmt(s.values[p])}" for p in s.usable())
+            values = ", ".join(f"{p:g}: {s.at_text(p)}" for p in s.usable())
             text += f"; {s.name} by {sweep.symbol} {values}" if values else ""
     if not jointly:  # a joint check reads only the range's end points, which it names
         text += _skipped(series)
     oks = [ok for ok, _ in parts]
     if any(ok is False for ok in oks):
         return ClaimResult(claim, text, "disagree")
-    return ClaimResult(claim, text, "undetermined" if any(ok is None for ok in oks) or not oks else "agree")
+    if any(ok is None for ok in oks) or not oks:
+        return ClaimResult(claim, text, "undetermined")
+    return ClaimResult(claim, text, SPREAD_VERDICT if any(ok == _SPREAD for ok in oks) else "agree")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -243,8 +258,10 @@ class _Undetermined(Exception):
     """A check cannot decide: points missing, failed or not converged."""
 
 
-#: one part of a check: (True agree | False disagree | None undetermined, text with the numbers)
-_Part = tuple[bool | None, str]
+#: a part of a check that the spread leaves open
+_SPREAD = "spread"
+#: one part of a check: (True agree | False disagree | None undetermined | _SPREAD, text with the numbers)
+_Part = tuple[bool | str | None, str]
 
 #: registry units as written in the summaries
 _UNIT_TEXT = {"deg": "°", "-": ""}
@@ -267,6 +284,7 @@ class _Series:
     problems: dict[float, str]  # parameter -> why unusable
     tol: float  # tolerance in the quantity's unit
     sweep: PaperSweep
+    spreads: dict[float, float]  # usable points' standard deviation over replicas (0: one run)
 
     @property
     def p_unit(self) -> str:
@@ -305,6 +323,23 @@ class _Series:
                                 f"{len(low)} (≤ {below:g}) and {len(high)} (≥ {above:g})")
         return low, high
 
+    def u(self, *ps: float) -> float:
+        """The spread of a comparison of the points ``ps``: sqrt of the sum of their variances."""
+        return math.sqrt(math.fsum(self.spreads.get(p, 0.0) ** 2 for p in ps))
+
+    def at_text(self, p: float) -> str:
+        """The value at p with its spread: "74.2°" or, with replicas, "74.2 ± 3.1°"."""
+        v, sd = self.values[p], self.spreads.get(p, 0.0)
+        if not sd:
+            return self.fmt(v)
+        text = self.fmt(v)
+        unit = "°" if self.unit == "°" else (f" {self.unit}" if self.unit else "")
+        return f"{text.removesuffix(unit)} ± {self.fmt(sd).removesuffix(unit)}{unit}"
+
+    def pm(self, u: float) -> str:
+        """" ± u" with the unit where there is a spread, else ""."""
+        return f" ± {self.fmt(u)}" if u > 0 else ""
+
     def fmt(self, v: float, signed: bool = False) -> str:
         """A value (or a change, ``signed``) with its unit: "74.2°", "+3.0 mm", "0.61"."""
         if not self.unit:
@@ -317,6 +352,7 @@ def _series(rows: Sequence[dict], sweep: PaperSweep, key: str, magnitude: bool, 
     """Metric ``key`` over the rows of ``sweep``; tol = ``share`` x its largest magnitude."""
     requested: list[float] = []
     values: dict[float, float] = {}
+    spreads: dict[float, float] = {}
     problems: dict[float, str] = {}
     name, unit = _quantity(key)
     for row in rows:
@@ -334,11 +370,36 @@ def _series(rows: Sequence[dict], sweep: PaperSweep, key: str, magnitude: bool, 
         elif key == "curling_index" and not 0.0 <= v <= 1.0:
             # the rotation reverses along the actuator (an S shape): neither bending nor curling
             problems[p] = f"curling index {v:.2f} outside [0, 1] (the rotation reverses along the actuator)"
+        elif key == "curling_index" and not 0.0 <= (number(row.get(f"{key}_min")) or 0.0) <= (
+                number(row.get(f"{key}_max")) or 0.0) <= 1.0 and number(row.get(f"{key}_max")) is not None:
+            # a replica's S shape: a mean over it would mix curling with reversal
+            problems[p] = (f"curling index of a replica outside [0, 1] ({number(row.get(f'{key}_min')):.2f} to "
+                           f"{number(row.get(f'{key}_max')):.2f}: the rotation reverses along the actuator)")
         else:
             values[p] = abs(v) if magnitude else v
+            spreads[p] = number(row.get(f"{key}_std")) or 0.0
     scale = max((abs(v) for v in values.values()), default=0.0)
     return _Series(name=f"|{name}|" if magnitude else name, unit=unit, requested=sorted(set(requested)),
-                   values=values, problems=problems, tol=share * scale, sweep=sweep)
+                   values=values, problems=problems, tol=share * scale, sweep=sweep, spreads=spreads)
+
+
+def _beyond(ok: bool, checks: Sequence[tuple[float, float]]) -> bool | str:
+    """A part's outcome given its comparisons, each (margin, u): margin > 0 where the rule holds,
+    u the spread of what it compares. Without spread: ``ok`` (the rule as it reads). With it:
+    False if a margin is below -u, True if every margin is above +u, else _SPREAD."""
+    if all(u <= 0.0 for _, u in checks):
+        return ok
+    if any(m < -u for m, u in checks):
+        return False
+    return True if all(m > u for m, u in checks) else _SPREAD
+
+
+def _spread_note(outcome: bool | str, s: _Series, margin: float, u: float) -> str:
+    """The text of a part the spread leaves open: how far from its threshold, against the spread."""
+    if outcome != _SPREAD:
+        return ""
+    return (f"; {SPREAD_VERDICT}: {s.fmt(margin, signed=True)} from the threshold, within the spread "
+            f"±{s.fmt(u)}")
 
 
 def _part(fn: Callable[..., tuple[bool, str]], *args) -> _Part:
@@ -370,22 +431,33 @@ def _change(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
     va, vb = s.at(a), s.at(b)
     d = vb - va
     ok = d > s.tol if t.shape == "rises" else -d > s.tol
+    margin, u = (d if t.shape == "rises" else -d) - s.tol, s.u(a, b)
+    outcome = _beyond(ok, [(margin, u)])
     limit = s.fmt(s.tol if t.shape == "rises" else -s.tol, signed=True)
-    return ok, (f"{s.name} {s.fmt(va)} ({fmt_param(a, s.p_unit)}) -> {s.fmt(vb)} ({fmt_param(b, s.p_unit)}): "
-                f"{s.fmt(d, signed=True)} [{t.shape} if beyond {limit}]")
+    return outcome, (f"{s.name} {s.at_text(a)} ({fmt_param(a, s.p_unit)}) -> {s.at_text(b)} "
+                     f"({fmt_param(b, s.p_unit)}): {s.fmt(d, signed=True)}{s.pm(u)} [{t.shape} if beyond {limit}]"
+                     + _spread_note(outcome, s, margin, u))
 
 
 def _levels(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
     """"levels": end-to-end change within tol and spread (max - min) within 2 tol."""
     a, b = s.segment(t.start, t.end, notes)
     va, vb = s.at(a), s.at(b)
-    vals = [s.values[p] for p in s.usable(a, b)]
-    spread = max(vals) - min(vals)
+    pts = s.usable(a, b)
+    hi_p, lo_p = max(pts, key=s.values.get), min(pts, key=s.values.get)
+    spread = s.values[hi_p] - s.values[lo_p]
     d = vb - va
     ok = abs(d) <= s.tol and spread <= 2.0 * s.tol
-    return ok, (f"{s.name} {s.fmt(va)} ({fmt_param(a, s.p_unit)}) -> {s.fmt(vb)} ({fmt_param(b, s.p_unit)}): "
-                f"{s.fmt(d, signed=True)}, spread {s.fmt(spread)} over {len(vals)} points "
-                f"[levels if change within ±{s.fmt(s.tol)} and spread within {s.fmt(2 * s.tol)}]")
+    checks = [(s.tol - abs(d), s.u(a, b)), (2.0 * s.tol - spread, s.u(hi_p, lo_p))]
+    outcome = _beyond(ok, checks)
+    note = ""
+    if outcome == _SPREAD:
+        m, u = min(checks, key=lambda c: abs(c[0]) - c[1])
+        note = _spread_note(outcome, s, m, u)
+    return outcome, (f"{s.name} {s.at_text(a)} ({fmt_param(a, s.p_unit)}) -> {s.at_text(b)} "
+                     f"({fmt_param(b, s.p_unit)}): {s.fmt(d, signed=True)}{s.pm(checks[0][1])}, range "
+                     f"{s.fmt(spread)}{s.pm(checks[1][1])} over {len(pts)} points "
+                     f"[levels if change within ±{s.fmt(s.tol)} and range within {s.fmt(2 * s.tol)}]" + note)
 
 
 def _no_step_up(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
@@ -393,11 +465,19 @@ def _no_step_up(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
     pts = s.usable()
     if len(pts) < 2:
         raise _Undetermined(f"{s.name}: fewer than 2 usable points")
-    ups = [(a, b, s.values[b] - s.values[a]) for a, b in zip(pts, pts[1:]) if s.values[b] - s.values[a] > s.tol]
-    if not ups:
+    steps = [(a, b, s.values[b] - s.values[a], s.u(a, b)) for a, b in zip(pts, pts[1:])]
+    ups = [(a, b, d, u) for a, b, d, u in steps if d > s.tol]
+    outcome = _beyond(not ups, [(s.tol - d, u) for _, _, d, u in steps])
+    if outcome is True:
         return True, f"{s.name}: no step up beyond {s.fmt(s.tol)} between neighbouring points ({len(pts)} points)"
-    return False, f"{s.name} steps up beyond {s.fmt(s.tol)}: " + ", ".join(
-        f"{fmt_param(a, s.p_unit)} -> {fmt_param(b, s.p_unit)} {s.fmt(d, signed=True)}" for a, b, d in ups)
+    if outcome is False:
+        shown = [st for st in steps if s.tol - st[2] < -st[3]] or ups
+        return False, f"{s.name} steps up beyond {s.fmt(s.tol)}: " + ", ".join(
+            f"{fmt_param(a, s.p_unit)} -> {fmt_param(b, s.p_unit)} {s.fmt(d, signed=True)}{s.pm(u)}"
+            for a, b, d, u in shown)
+    open_ = [st for st in steps if abs(s.tol - st[2]) <= st[3]]
+    return _SPREAD, (f"{s.name}: {SPREAD_VERDICT}: steps within the spread of the limit {s.fmt(s.tol)}: " + ", ".join(
+        f"{fmt_param(a, s.p_unit)} -> {fmt_param(b, s.p_unit)} {s.fmt(d, signed=True)}{s.pm(u)}" for a, b, d, u in open_))
 
 
 def _linear(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
@@ -411,9 +491,22 @@ def _linear(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
     if ss_tot <= (1e-9 * max(1.0, float(np.abs(y).max()))) ** 2:
         return False, f"{s.name} constant over {s.sweep.symbol}: no trend"
     slope, icpt = np.polyfit(x, y, 1)
-    r2 = 1.0 - float(np.sum((y - (slope * x + icpt)) ** 2)) / ss_tot
-    return r2 >= t.threshold, (f"{s.name}: slope {slope:+.2f} {s.unit}/{s.p_unit}, R² {r2:.2f} over {len(pts)} "
-                               f"points [linear if R² ≥ {t.threshold:g}]")
+    resid = y - (slope * x + icpt)
+    r2 = 1.0 - float(np.sum(resid**2)) / ss_tot
+    ok = r2 >= t.threshold
+    text = f"{s.name}: slope {slope:+.2f} {s.unit}/{s.p_unit}, R² {r2:.2f} over {len(pts)} points [linear if R² ≥ {t.threshold:g}]"
+    sd = np.array([s.spreads.get(p, 0.0) for p in pts])
+    if not sd.any():
+        return ok, text
+    # with replicas: a line needs a change over the range beyond the spread, and a curve (R² short
+    # of the threshold) needs a point off the line by more than its own spread
+    change, typical = abs(slope) * float(x.max() - x.min()), float(np.sqrt(np.mean(sd**2)))
+    if ok and change <= typical:
+        return _SPREAD, text + (f"; {SPREAD_VERDICT}: the fitted change {s.fmt(change)} is within the replicas' "
+                                f"spread ±{s.fmt(typical)}")
+    if not ok and not np.any(np.abs(resid) > sd):
+        return _SPREAD, text + f"; {SPREAD_VERDICT}: every point lies within its spread of the line"
+    return ok, text
 
 
 def _peak(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
@@ -422,9 +515,15 @@ def _peak(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
     vp = s.at(p)
     top = max(s.usable(), key=s.values.get)
     gap = s.values[top] - vp
-    return gap <= s.tol, (f"largest {s.name} {s.fmt(s.values[top])} at {fmt_param(top, s.p_unit)}, "
-                          f"{s.fmt(gap)} above {fmt_param(p, s.p_unit)} [peak at {fmt_param(p, s.p_unit)} "
-                          f"if within {s.fmt(s.tol)}]")
+    checks = {q: (s.tol - (s.values[q] - vp), s.u(q, p)) for q in s.usable() if q != p}
+    outcome = _beyond(gap <= s.tol, list(checks.values()) or [(s.tol, 0.0)])
+    note = ""
+    if outcome == _SPREAD:
+        q = min(checks, key=lambda q: abs(checks[q][0]) - checks[q][1])
+        note = _spread_note(outcome, s, *checks[q]) + f" ({fmt_param(q, s.p_unit)})"
+    return outcome, (f"largest {s.name} {s.at_text(top)} at {fmt_param(top, s.p_unit)}, "
+                     f"{s.fmt(gap)} above {fmt_param(p, s.p_unit)} [peak at {fmt_param(p, s.p_unit)} "
+                     f"if within {s.fmt(s.tol)}]" + note)
 
 
 def _curls(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
@@ -433,30 +532,50 @@ def _curls(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
     m_low = float(np.median([s.values[p] for p in low]))
     m_high = float(np.median([s.values[p] for p in high]))
     sym = s.sweep.symbol
-    return m_high - m_low >= t.threshold, (
+    margin = m_high - m_low - t.threshold
+    u = math.sqrt(float(np.mean([s.spreads.get(p, 0.0) ** 2 for p in low]))
+                  + float(np.mean([s.spreads.get(p, 0.0) ** 2 for p in high])))
+    outcome = _beyond(m_high - m_low >= t.threshold, [(margin, u)])
+    return outcome, (
         f"median {s.name} {s.fmt(m_low)} ({sym} ≤ {t.split[0]:g}, {len(low)} points) -> {s.fmt(m_high)} "
-        f"({sym} ≥ {t.split[1]:g}, {len(high)} points) [curling if +{t.threshold:g} or more]")
+        f"({sym} ≥ {t.split[1]:g}, {len(high)} points){s.pm(u)} [curling if +{t.threshold:g} or more]"
+        + _spread_note(outcome, s, margin, u))
 
 
 def _transition(t: Trend, notes: list[str], s: _Series) -> tuple[bool, str]:
     """The largest rise between neighbouring usable points lies in a step within [start, end]."""
     low, high = s.sides(t.split)
     pts = low + high
-    d, a, b = max((s.values[b] - s.values[a], a, b) for a, b in zip(pts, pts[1:]))
+    steps = [(s.values[b] - s.values[a], a, b) for a, b in zip(pts, pts[1:])]
+    d, a, b = max(steps)
     sym = s.sweep.symbol
-    return d > 0 and a >= t.start and b <= t.end, (
-        f"largest rise {s.fmt(d, signed=True)} from {sym} {a:g} to {b:g} "
-        f"[transition if within {sym} {t.start:g}-{t.end:g}]")
+    ok = d > 0 and a >= t.start and b <= t.end
+    inside = [st for st in steps if st[1] >= t.start and st[2] <= t.end]
+    outside = [st for st in steps if st not in inside]
+    outcome: bool | str = ok
+    note = ""
+    if inside:  # the best step inside the window against the best outside it (or no rise at all)
+        d_in, a_in, b_in = max(inside)
+        d_out, a_out, b_out = max(outside) if outside else (0.0, a_in, a_in)
+        margin = d_in - max(d_out, 0.0)
+        u = math.sqrt(s.u(a_in, b_in) ** 2 + (s.u(a_out, b_out) ** 2 if d_out > 0 else 0.0))
+        outcome = _beyond(ok, [(margin, u)])
+        note = _spread_note(outcome, s, margin, u)
+    return outcome, (f"largest rise {s.fmt(d, signed=True)}{s.pm(s.u(a, b))} from {sym} {a:g} to {b:g} "
+                     f"[transition if within {sym} {t.start:g}-{t.end:g}]" + note)
 
 
 def _larger_change(t: Trend, notes: list[str], first: _Series, second: _Series) -> tuple[bool, str]:
     """Between the ends of the range, ``first`` changes more in size than ``second``."""
     lo, hi = first.segment(t.start, t.end, notes)
     d1, d2 = first.at(lo) - first.at(hi), second.at(lo) - second.at(hi)
-    return abs(d1) > abs(d2), (
+    u1, u2 = first.u(lo, hi), second.u(lo, hi)
+    margin, u = abs(d1) - abs(d2), math.sqrt(u1**2 + u2**2)
+    outcome = _beyond(abs(d1) > abs(d2), [(margin, u)])
+    return outcome, (
         f"from {fmt_param(hi, first.p_unit)} to {fmt_param(lo, first.p_unit)}: {first.name} changes by "
-        f"{first.fmt(d1, signed=True)}, {second.name} by {second.fmt(d2, signed=True)} "
-        f"[agree if |Δ{first.name}| > |Δ{second.name}|]")
+        f"{first.fmt(d1, signed=True)}{first.pm(u1)}, {second.name} by {second.fmt(d2, signed=True)}{second.pm(u2)} "
+        f"[agree if |Δ{first.name}| > |Δ{second.name}|]" + _spread_note(outcome, first, margin, u))
 
 
 _SHAPES: dict[str, Callable[..., tuple[bool, str]]] = {

@@ -181,7 +181,9 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
     """Bending angle and free-end displacement magnitudes |δx|, |δz| against the parameter (the
     paper's Figs. 7, 9, 11), and with ``curling`` (default: for ``particle_layers``) the curling
     index. Markers and lines; a non-converged point is drawn hollow, a failed one is left out
-    and named under the figure."""
+    and named under the figure. Rows of replicated points (``<metric>_std``, ``_min``, ``_max``
+    columns) are drawn at their mean with error bars of ± one standard deviation and a band over
+    the replicas' range (of magnitudes, for |δx| and |δz|)."""
     from matplotlib.lines import Line2D
 
     rows = sorted_by(rows, param)
@@ -193,8 +195,10 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
     axes = fig.subplots(1, n_ax)
     xlabel = f"{label} [{unit}]" if unit else label
 
+    replicas = [number(r.get("replicas")) for r in rows if number(r.get("replicas"))]
+
     def draw(ax, key, magnitude, colour, marker, name):
-        xs, ys, hollow = [], [], []
+        xs, ys, hollow, err, lo, hi = [], [], [], [], [], []
         for r in rows:
             p, v = number(r.get(param)), number(r.get(key))
             if p is None or v is None or point_status(r) == "failed":
@@ -202,8 +206,18 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
             xs.append(p)
             ys.append(abs(v) if magnitude else v)
             hollow.append(point_status(r) == "not_converged")
+            err.append(number(r.get(f"{key}_std")) or 0.0)
+            ends = [number(r.get(f"{key}_min")), number(r.get(f"{key}_max"))]
+            ends = [ys[-1] if e is None else (abs(e) if magnitude else e) for e in ends]
+            if magnitude and ends[0] * ends[1] < 0:  # the replicas' signs differ: the range reaches 0
+                ends = [0.0, max(ends)]
+            lo.append(min(ends))
+            hi.append(max(ends))
         xs, ys, hollow = np.array(xs), np.array(ys), np.array(hollow, dtype=bool)
         ax.plot(xs, ys, "-", color=colour, lw=1.2, label=name)
+        if any(err):
+            ax.fill_between(xs, lo, hi, color=colour, alpha=0.15, lw=0)
+            ax.errorbar(xs, ys, yerr=err, fmt="none", ecolor=colour, elinewidth=1.0, capsize=3)
         ax.plot(xs[~hollow], ys[~hollow], marker, color=colour, ms=6, ls="none")
         ax.plot(xs[hollow], ys[hollow], marker, ms=6, ls="none", mfc="white", mec=colour, mew=1.5)
         return bool(hollow.any())
@@ -227,6 +241,9 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
         axes[0].legend(handles=notes, fontsize=8)
     caption = ("|δx|, |δz|: magnitudes of the free-end displacement, as the paper plots them "
                "(signed in the report: δx < 0 toward the strain-limit layer, δz < 0 downward)")
+    if replicas and max(replicas) > 1:
+        caption += (f"\nmeans of {max(replicas):.0f} replicas per point; error bars ± one standard deviation, "
+                    "bands the replicas' range")
     failed = [r for r in rows if point_status(r) == "failed"]
     if failed:
         sym, _, u = _sweep_for(param, label, unit)

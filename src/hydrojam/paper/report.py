@@ -18,6 +18,7 @@ from hydrojam.paper.claims import (
     CURLING_MARGIN,
     DISPLACEMENT_TOL,
     PAPER_CLAIMS,
+    SPREAD_VERDICT,
     check_claims,
 )
 from hydrojam.paper.figures import figure_names
@@ -56,9 +57,37 @@ def _md(text: str) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
 
 
+def _pm(r: dict, key: str, fmt: str = "{:.1f}") -> str:
+    """A cell with the replicas' spread: "74.2 ± 3.1" (or the plain value of a single run)."""
+    sd = number(r.get(f"{key}_std"))
+    return _cell(r.get(key), fmt) + ("" if sd is None else " ± " + fmt.format(sd))
+
+
+def _replicated(rows) -> int:
+    """The most replicas of any row (1: single runs)."""
+    return int(max((number(r.get("replicas")) or 1.0 for r in rows), default=1.0))
+
+
 def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
-    """The Markdown table of one sweep's points, sorted by the parameter (signed δx, δz)."""
+    """The Markdown table of one sweep's points, sorted by the parameter (signed δx, δz); with
+    replicas, mean ± standard deviation, the replicas used of those run, and summed wall times."""
     head = f"{sw.symbol} [{sw.unit}]" if sw.unit != "layers" else sw.symbol
+    if _replicated(rows) > 1:
+        lines = [f"| {head} | θ [deg] | δx [mm] | δz [mm] | curling index | replicas used | Newton iterations "
+                 "(mean) | wall time, summed [s] | status |",
+                 "|---:|---:|---:|---:|---:|---:|---:|---:|:---|"]
+        for r in sorted_by(rows, sw.field):
+            status = point_status(r)
+            note = status if status != "failed" else "failed"
+            if r.get("error"):
+                note += f": {r.get('error')}"
+            used = f"{_cell(r.get('replicas_used'), '{:.0f}')}/{_cell(r.get('replicas'), '{:.0f}')}"
+            lines.append(
+                f"| {fmt_param(number(r.get(sw.field)))} | {_pm(r, 'bending_angle_deg')} | {_pm(r, 'tip_dx_mm')} | "
+                f"{_pm(r, 'tip_dz_mm')} | {_pm(r, 'curling_index', '{:.2f}')} | {used} | "
+                f"{_cell(r.get('newton_iterations'), '{:.0f}')} | {_cell(r.get('wall_time_s'), '{:.0f}')} | "
+                f"{_md(note)} |")
+        return lines
     lines = [f"| {head} | θ [deg] | δx [mm] | δz [mm] | curling index | converged | Newton iterations | "
              "wall time [s] | status |",
              "|---:|---:|---:|---:|---:|:---:|---:|---:|:---|"]
@@ -80,12 +109,17 @@ def _tolerance_text() -> list[str]:
     """How the trend words, tolerances, ranges and verdicts are read, as Markdown bullets."""
     return [
         f"- *rises* (*falls*) from a to b: v(b) − v(a) > tol (v(a) − v(b) > tol); *levels* from a to b: "
-        f"|v(b) − v(a)| ≤ tol and the spread (max − min) over the points in [a, b] ≤ 2 tol.",
+        f"|v(b) − v(a)| ≤ tol and the range (max − min) over the points in [a, b] ≤ 2 tol.",
         f"- tol = {ANGLE_TOL:g} × the sweep's largest |θ| for the bending angle, and {DISPLACEMENT_TOL:g} × the "
         f"sweep's largest magnitude for |δx| and |δz| (the tip is more path dependent than the angle; "
         f"docs/reproduce.md).",
         f"- Displacements are compared as magnitudes |δx|, |δz|, as the paper plots them; the signed values are "
         f"in the tables (δx < 0: toward the strain-limit layer, δz < 0: downward).",
+        "- With replicas (`--replicas N`) each point's value is the mean over its replicas that converged, and a "
+        "part of a check agrees or disagrees only beyond the spread: its distance from the threshold (e.g. "
+        "v(b) − v(a) − tol for *rises*) must exceed u = √(s_a² + s_b²), s the points' standard deviations "
+        "over the replicas (the spread of one filling against another). Otherwise the part, and the claim "
+        f"unless another part disagrees, is *{SPREAD_VERDICT}*, with the numbers.",
         f"- Curling index: share of the strain-limit layer mid-line's rotation accumulated in the half nearest "
         f"the clamp (0.5 uniform bending, toward 1 curling); the transition check needs the median of PL ≥ 10 "
         f"to exceed that of PL ≤ 9 by {CURLING_MARGIN:g} and the largest rise between neighbouring points "
@@ -95,8 +129,8 @@ def _tolerance_text() -> list[str]:
         "h = 4, 8, 12 mm: 4 to 10 mm is checked from 4 to 8 mm, and 10 to 12 mm, with one point, cannot be). "
         "A part of a check is *undetermined* where such an end point failed or did not converge, or fewer "
         "than two points lie in the range; other unusable points are skipped and named.",
-        "- A claim *disagrees* if any part of its check does, else it is *undetermined* if any part is, else "
-        "it *agrees*.",
+        "- A claim *disagrees* if any part of its check does, else it is *undetermined* if any part is (for want "
+        f"of points), else *{SPREAD_VERDICT}* if any part is, else it *agrees*.",
     ]
 
 
@@ -122,17 +156,27 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     n_points = len(by_key)
     compute = sum(number(r.get("wall_time_s")) or 0.0 for r in by_key.values())
     counts = {s: sum(1 for r in by_key.values() if point_status(r) == s) for s in ("ok", "not_converged", "failed")}
-    verdicts = {v: sum(1 for c in results if c.verdict == v) for v in ("agree", "disagree", "undetermined")}
+    verdicts = {v: sum(1 for c in results if c.verdict == v)
+                for v in ("agree", "disagree", "undetermined", SPREAD_VERDICT)}
+    n_replicas = _replicated(all_rows)
 
     L = ["# hydrojam reproduction of Chen, Schott & Jovanova, Section IV (Figs. 6-11)", ""]
     L += ["## What was run", ""]
-    L += [f"- Study: **{'quick' if quick else 'full'}** (`hydrojam reproduce{' --quick' if quick else ''}`), "
+    L += [f"- Study: **{'quick' if quick else 'full'}** (`hydrojam reproduce{' --quick' if quick else ''}"
+          f"{f' --replicas {n_replicas}' if n_replicas > 1 else ''}`), "
           f"hydrojam {__version__}.",
           f"- Base design: the default (PL {base.particle_layers}, h = {base.strain_limit_thickness:g} mm, "
           f"T = {base.stimulus.temperature:g} K, d = {base.particle_diameter:g} mm, frictionless), "
           f"2D plane strain (particles are cylinders), mesh size {base.mesh.size:g} mm (quadratic triangles).",
           ]
-    rerun = f"`hydrojam reproduce{' --quick' if quick else ''} -o {out}`"
+    if n_replicas > 1:
+        L.append(f"- Replicas: {n_replicas} per point (`--replicas {n_replicas}`), each with its particle centres "
+                 f"jittered by up to {base.replicas.jitter:g} × the clearance from seed {base.replicas.seed} "
+                 "(replica 0 as drawn; docs/replicas.md); the tables and figures give the mean ± standard "
+                 "deviation over the replicas that converged, and a statement agrees or disagrees only beyond "
+                 "the spread.")
+    flag = f"{' --quick' if quick else ''}{f' --replicas {n_replicas}' if n_replicas > 1 else ''}"
+    rerun = f"`hydrojam reproduce{flag} -o {out}`"
     for sw in PAPER_SWEEPS:
         vals = sorted({v for v in (number(r.get(sw.field)) for r in rows_of(table, sw.name)) if v is not None})
         not_run = "" if vals else f" **Not run**: {rerun} adds it, reusing the finished points."
@@ -145,7 +189,8 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
           f"wall time {'—' if number(wall_time_s) is None else _duration(wall_time_s)}; "
           f"compute time summed over points {_duration(compute)} (a resumed run reuses finished points).",
           f"- Claims: {verdicts['agree']} agree, {verdicts['disagree']} disagree, "
-          f"{verdicts['undetermined']} undetermined.", ""]
+          f"{verdicts['undetermined']} undetermined"
+          + (f", {verdicts[SPREAD_VERDICT]} {SPREAD_VERDICT}." if n_replicas > 1 else "."), ""]
     for sw in PAPER_SWEEPS:
         rows = rows_of(table, sw.name)
         L += [f"## {sw.label[0].upper() + sw.label[1:]} (paper {sw.figures})", ""]

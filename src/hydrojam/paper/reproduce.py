@@ -23,15 +23,17 @@ __all__ = ["reproduce"]
 
 def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | None = None,
               scheduler: str | None = None, sweeps: Sequence[str] | None = None,
-              on_point: Callable[[PointOutcome, int, int], None] | None = None) -> tuple[SweepTable, Path]:
+              on_point: Callable[[PointOutcome, int, int], None] | None = None,
+              replicas: int = 1) -> tuple[SweepTable, Path]:
     """Run the Section IV study into ``out`` (:func:`hydrojam.study.sweep.run_sweep` with
     ``workers``, ``scheduler`` and ``on_point``; quick: a subset on a 4 mm mesh; ``sweeps``: only
-    those named, the others can be added by a later call into the same folder), write the
+    those named, the others can be added by a later call into the same folder; ``replicas`` per
+    point: the table, figures and verdicts then use their mean and spread), write the
     figures into ``OUT/figures/`` and ``OUT/report.md``; returns (SweepTable, report path).
     The report's wall time [s] is this call's."""
     out = Path(out)
     t0 = time.perf_counter()
-    study = paper_study(quick, sweeps)
+    study = paper_study(quick, sweeps, replicas)
     table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point)
     write_figures(out, table)
     report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler,

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from hydrojam.actuator.design import Design, apply_overrides, default_design
+from hydrojam.actuator.design import Design, apply_overrides, default_design, with_replicas
 from hydrojam.study.spec import Study, SweepSpec
 
 __all__ = [
@@ -82,13 +82,13 @@ def sweep_of_field(field: str) -> PaperSweep | None:
     return _BY_FIELD.get(field)
 
 
-def paper_base(quick: bool = False) -> Design:
+def paper_base(quick: bool = False, replicas: int = 1) -> Design:
     """The base design of every sweep: the default (PL 5, h 8 mm, 275 K, 2D); quick: mesh
-    size QUICK_MESH_SIZE [mm]."""
+    size QUICK_MESH_SIZE [mm]; ``replicas`` per point (replicas.count)."""
     base = default_design()
     if quick:
         base = apply_overrides(base, [f"mesh.size={QUICK_MESH_SIZE!r}"])
-    return base
+    return with_replicas(base, replicas) if replicas != 1 else base
 
 
 def paper_points(quick: bool = False) -> dict[str, dict[str, list]]:
@@ -97,14 +97,16 @@ def paper_points(quick: bool = False) -> dict[str, dict[str, list]]:
     return {s.name: {s.field: list(s.quick_values if quick else s.values)} for s in PAPER_SWEEPS}
 
 
-def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None) -> Study:
+def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None, replicas: int = 1) -> Study:
     """The Section IV study as a :class:`hydrojam.study.spec.Study` named "paper" ("paper-quick"):
     sweeps "temperature", "particle_layers", "strain_limit_thickness" round :func:`paper_base`
     (``sweeps``: only those named, in the paper's order; ValueError naming the allowed ones for
-    an unknown name). The base point (275 K, PL 5, h 8 mm) lies in all three."""
+    an unknown name), ``replicas`` runs per point (replica 0 of each is the single run's point,
+    so a study with more replicas reuses a finished single-run study in the same folder). The
+    base point (275 K, PL 5, h 8 mm) lies in all three."""
     points = paper_points(quick)
     unknown = [s for s in (sweeps or ()) if s not in points]
     if unknown:
         raise ValueError(f"unknown sweep {', '.join(map(repr, unknown))}; allowed: {', '.join(points)}")
     sweeps = [SweepSpec(name=name, vary=vary) for name, vary in points.items() if sweeps is None or name in sweeps]
-    return Study(name="paper-quick" if quick else "paper", base=paper_base(quick), sweeps=sweeps)
+    return Study(name="paper-quick" if quick else "paper", base=paper_base(quick, replicas), sweeps=sweeps)

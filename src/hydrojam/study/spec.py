@@ -36,7 +36,16 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError,
 
 from hydrojam._io import read_toml, write_text_atomic
 from hydrojam._validation import _short, explain_error, submodel
-from hydrojam.actuator.design import Design, DesignError, _merge, _toml, default_design, design_from_dict, load_design
+from hydrojam.actuator.design import (
+    Design,
+    DesignError,
+    _merge,
+    _toml,
+    default_design,
+    design_from_dict,
+    load_design,
+    with_replicas,
+)
 
 #: bump when what a cached point holds changes: every key changes, so nothing old is reused
 CACHE_FORMAT = 2
@@ -66,8 +75,14 @@ def design_key(design: Design) -> str:
     """16 hex digits of SHA-256 over the resolved design (canonical JSON) and :data:`CACHE_FORMAT`.
 
     Equal designs written differently (a derived cavity size left out or written out) share a key.
+    Of the ``replicas`` table only what changes the run counts: nothing for replica 0 (the design
+    as drawn, the key it had before replicas existed), seed, jitter and index for another.
     """
-    data = {"cache_format": CACHE_FORMAT, "design": design.resolved().model_dump(mode="json")}
+    dumped = design.resolved().model_dump(mode="json")
+    replicas = dumped.pop("replicas")
+    if replicas["index"] > 0:
+        dumped["replica"] = {k: replicas[k] for k in ("seed", "jitter", "index")}
+    data = {"cache_format": CACHE_FORMAT, "design": dumped}
     text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
 
@@ -131,13 +146,16 @@ class SweepSpec(BaseModel):
 
 @dataclass(frozen=True)
 class Point:
-    """One point of a study: its sweep, index within the sweep, varied values, design and cache key."""
+    """One run of a study: its sweep, index within the sweep, varied values, design and cache key,
+    and which of the point's ``replicas`` it is (``design`` is that replica's, a single run)."""
 
     sweep: str
     index: int
     values: dict[str, Any]
     design: Design
     key: str
+    replica: int = 0
+    replicas: int = 1
 
 
 def _point_design(base: Design, values: dict[str, Any]) -> Design:
@@ -185,13 +203,30 @@ class Study(BaseModel):
                 except DesignError as err:
                     given = ", ".join(f"{k} = {v!r}" for k, v in values.items())
                     raise ValueError(f"sweep '{sweep.name}' point {index} ({given}): {err}") from None
-                points.append(Point(sweep.name, index, values, design, design_key(design)))
+                n = design.replicas.count
+                for k in range(n):
+                    one = design.replica(k)
+                    points.append(Point(sweep.name, index, values, one, design_key(one), k, n))
         self._points = points
         return self
 
     def points(self) -> list[Point]:
-        """Every point of every sweep, in study order (sweep order, then grid order)."""
+        """Every run of every sweep, in study order (sweep order, then grid order, then replica):
+        a point of a design with ``replicas.count`` N is N runs (:meth:`Design.replica`)."""
         return list(self._points)
+
+    @property
+    def replicas(self) -> int:
+        """The most replicas of any point (1: every point is a single run)."""
+        return max((p.replicas for p in self._points), default=1)
+
+    def with_replicas(self, count: int) -> Study:
+        """The study with ``count`` replicas of every point (the base design's ``replicas.count``;
+        a sweep varying it still wins); DesignError naming the field for a bad count."""
+        try:
+            return Study(name=self.name, base=with_replicas(self.base, count), sweeps=self.sweeps)
+        except ValidationError as err:
+            raise StudyError(_one_line(err, Study, "")) from None
 
     def varied_fields(self) -> list[str]:
         """The dotted fields varied anywhere in the study, in order of first appearance."""

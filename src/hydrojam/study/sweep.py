@@ -12,6 +12,10 @@ Layout of an output folder ``OUT``::
         error.txt           the traceback of a failed point
     results.csv             one row per (sweep, point), see :class:`SweepTable`
     results.parquet         the same, typed columns, nulls for undefined values
+    replicas.csv            with replicas (a design's ``replicas.count`` > 1): one row per run
+
+A point whose design asks for N replicas is N runs (:meth:`hydrojam.study.spec.Study.points`),
+each its own design and folder; its row holds their mean and spread (:func:`build_table`).
 
 ``point.json``: ``{"key", "status": "ok" | "not_converged" | "failed", "error", "metrics",
 "wall_time_s", "point_time_s", "hydrojam_version"}``; ``wall_time_s`` is the wall time the point
@@ -32,6 +36,7 @@ import csv
 import io
 import json
 import logging
+import math
 import os
 import shutil
 import time
@@ -49,6 +54,7 @@ from hydrojam._validation import owner_model
 from hydrojam.actuator.design import Design, DesignError
 from hydrojam.actuator.metrics import STATE_METRICS, metric
 from hydrojam.study.spec import Point, Study, StudyError, write_study
+from hydrojam.study.spread import spread
 
 #: seconds to wait for a dask scheduler given by address
 CONNECT_TIMEOUT_S = 10.0
@@ -62,14 +68,23 @@ METRIC_COLUMNS: dict[str, type] = {m.name: m.type for m in (*STATE_METRICS, *map
 _HEAD: dict[str, type] = {"sweep": str, "point": int, "key": str}
 _TAIL: dict[str, type] = {"wall_time_s": metric("wall_time_s").type, "status": str, "error": str, "point_dir": str}
 _FINISHED = ("ok", "not_converged")
+#: the metrics whose spread over a point's replicas the table carries (``<name>_std``, ``_min``, ``_max``)
+SPREAD_METRICS: tuple[str, ...] = tuple(m.name for m in STATE_METRICS if m.type is float)
+_SPREAD: dict[str, type] = {f"{name}_{stat}": float for name in SPREAD_METRICS for stat in ("std", "min", "max")}
+#: columns of a table of replicated points, after the others: replicas run, replicas in the
+#: statistics, and every replica's folder (";"-separated, relative to OUT)
+_REPLICA_TAIL: dict[str, type] = {"replicas": int, "replicas_used": int, "replica_dirs": str}
 
 __all__ = [
     "CONNECT_TIMEOUT_S",
     "METRIC_COLUMNS",
     "PointOutcome",
+    "SPREAD_METRICS",
     "SchedulerError",
     "SweepTable",
     "TABLE_RUN_FIELDS",
+    "build_table",
+    "replica_table",
     "run_point",
     "run_sweep",
 ]
@@ -166,7 +181,7 @@ def _field_type(path: str) -> type:
 
 
 def _column_type(name: str) -> type:
-    for group in (_HEAD, METRIC_COLUMNS, _TAIL):
+    for group in (_HEAD, METRIC_COLUMNS, _TAIL, _SPREAD, _REPLICA_TAIL, {"replica": int}):
         if name in group:
             return group[name]
     return _field_type(name)
@@ -281,19 +296,97 @@ def _walk(design: Design, path: str) -> Any:
 
 
 def build_table(study: Study, records: dict[str, dict]) -> SweepTable:
-    """The table of a study from its points' outcome records (point.json), keyed by design key."""
+    """The table of a study from its runs' outcome records (point.json), keyed by design key:
+    one row per (sweep, point).
+
+    A point of one run gives that run's values. A point of several replicas gives statistics over
+    the replicas that reached the target (status ok; if none did, over those that stopped early,
+    and the row is not_converged; if none has metrics, failed): the metric columns hold the mean
+    (integers rounded, flags true only if true for every replica), ``<metric>_std``, ``_min``
+    and ``_max`` the spread of the :data:`SPREAD_METRICS`, ``wall_time_s`` the replicas' summed
+    wall time, ``error`` each other replica's error, ``key`` and ``point_dir`` replica 0's; the
+    spread columns and ``replicas``, ``replicas_used``, ``replica_dirs`` are there when any point
+    of the study has more than one replica.
+    """
     varied = study.varied_fields()
-    columns = [*_HEAD, *varied, *METRIC_COLUMNS, *_TAIL]
+    replicated = study.replicas > 1
+    columns = [*_HEAD, *varied, *METRIC_COLUMNS, *(_SPREAD if replicated else ()), *_TAIL,
+               *(_REPLICA_TAIL if replicated else ())]
+    groups: dict[tuple[str, int], list[Point]] = {}
+    for p in study.points():
+        groups.setdefault((p.sweep, p.index), []).append(p)
+    rows = []
+    for points in groups.values():
+        p = points[0]
+        recs = [records.get(q.key) or {"status": "failed", "error": "no outcome recorded"} for q in points]
+        row = _point_row(p, varied)
+        row.update(_aggregate(recs, [q.replica for q in points], replicated))
+        row["point_dir"] = f"points/{p.key}"
+        if replicated:
+            row["replica_dirs"] = ";".join(f"points/{q.key}" for q in points)
+        rows.append(row)
+    return SweepTable(rows, columns)
+
+
+def _point_row(p: Point, varied: list[str]) -> dict[str, Any]:
+    """The head of a point's row: sweep, point, key and the varied fields' values (resolved)."""
+    resolved = p.design.resolved()
+    row: dict[str, Any] = {"sweep": p.sweep, "point": p.index, "key": p.key}
+    for k in varied:  # the replicas table of a replica's design is its own (count 1): the point's is asked
+        value = p.replicas if k == "replicas.count" else _walk(resolved, k)
+        row[k] = _coerce(value, _field_type(k))
+    return row
+
+
+def _aggregate(recs: list[dict], replicas: list[int], replicated: bool) -> dict[str, Any]:
+    """The metric and tail columns of a point from its replicas' records (see :func:`build_table`)."""
+    statuses = [r.get("status") for r in recs]
+    if len(recs) == 1:
+        used = [0] if recs[0].get("metrics") else []
+        status = statuses[0]
+    else:
+        used = [i for i, st in enumerate(statuses) if st == "ok"]
+        used = used or [i for i, st in enumerate(statuses) if st == "not_converged" and recs[i].get("metrics")]
+        status = "failed" if not used else statuses[used[0]]
+    out: dict[str, Any] = {}
+    for k, kind in METRIC_COLUMNS.items():
+        values = [(recs[i].get("metrics") or {}).get(k) for i in used]
+        if kind is bool or len(values) == 1:
+            flags = [_coerce(v, kind) for v in values]
+            out[k] = None if not flags or None in flags else (all(flags) if kind is bool else flags[0])
+            continue
+        sp = spread([_coerce(v, kind) for v in values])
+        out[k] = _coerce(None if sp.mean is None else (round(sp.mean) if kind is int else sp.mean), kind)
+    if replicated:
+        for name in SPREAD_METRICS:
+            sp = spread([_coerce((recs[i].get("metrics") or {}).get(name), float) for i in used])
+            out.update({f"{name}_std": sp.std, f"{name}_min": sp.min, f"{name}_max": sp.max})
+        out.update(replicas=len(recs), replicas_used=len(used))
+    walls = [_coerce(r.get("wall_time_s"), float) for r in recs]
+    out["wall_time_s"] = None if all(w is None for w in walls) else math.fsum(w for w in walls if w is not None)
+    out["status"] = _coerce(status, str)
+    if len(recs) == 1:
+        out["error"] = _coerce(recs[0].get("error"), str)
+    else:
+        errors = [f"replica {k}: {r.get('error') or r.get('status')}" for k, r in zip(replicas, recs)
+                  if r.get("status") != "ok"]
+        out["error"] = "; ".join(errors) or None
+    return out
+
+
+def replica_table(study: Study, records: dict[str, dict]) -> SweepTable:
+    """One row per run (every replica of every point): the columns of a single-run table with
+    ``replica`` after ``point``; what ``OUT/replicas.csv`` holds."""
+    varied = study.varied_fields()
+    columns = [*_HEAD, "replica", *varied, *METRIC_COLUMNS, *_TAIL]
     rows = []
     for p in study.points():
         rec = records.get(p.key) or {"status": "failed", "error": "no outcome recorded"}
-        metrics = rec.get("metrics") or {}
-        resolved = p.design.resolved()
-        row: dict[str, Any] = {"sweep": p.sweep, "point": p.index, "key": p.key}
-        row.update({k: _coerce(_walk(resolved, k), _field_type(k)) for k in varied})
-        row.update({k: _coerce(metrics.get(k), kind) for k, kind in METRIC_COLUMNS.items()})
-        row.update(wall_time_s=_coerce(rec.get("wall_time_s"), float), status=_coerce(rec.get("status"), str),
-                   error=_coerce(rec.get("error"), str), point_dir=f"points/{p.key}")
+        row = _point_row(p, varied)
+        row["replica"] = p.replica
+        row = {c: row[c] for c in columns if c in row}
+        row.update(_aggregate([rec], [p.replica], False))
+        row["point_dir"] = f"points/{p.key}"
         rows.append(row)
     return SweepTable(rows, columns)
 
@@ -462,6 +555,8 @@ def run_sweep(
             cluster.close()
     table = build_table(study, records)
     table.write(out)
+    if study.replicas > 1:
+        write_text_atomic(out / "replicas.csv", replica_table(study, records).to_csv())
     return table
 
 

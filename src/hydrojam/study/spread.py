@@ -1,0 +1,62 @@
+"""The spread of one quantity over a design's replicas: mean, standard deviation, extremes and
+which replica gave them. Pure functions of plain values; a replica without a value (None: failed,
+or a metric undefined in its state) is left out of the statistics but keeps its place."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+__all__ = ["Spread", "spread"]
+
+
+@dataclass(frozen=True)
+class Spread:
+    """Statistics of ``values`` (one per replica, in replica order; None where undefined).
+
+    ``n``: the defined values; ``mean``; ``std``: the sample standard deviation (n - 1 in the
+    denominator: the spread of the population of fillings the replicas sample), None for fewer
+    than 2 values; ``min`` / ``max`` and ``argmin`` / ``argmax``, the replica (position in
+    ``values``) that gave them, the first on ties. All None when no value is defined.
+    """
+
+    values: tuple[float | None, ...]
+    n: int
+    mean: float | None
+    std: float | None
+    min: float | None
+    max: float | None
+    argmin: int | None
+    argmax: int | None
+
+    def as_dict(self) -> dict:
+        """Plain data for JSON: the statistics and the values by replica."""
+        return {"n": self.n, "mean": self.mean, "std": self.std, "min": self.min, "min_replica": self.argmin,
+                "max": self.max, "max_replica": self.argmax, "values": list(self.values)}
+
+
+def _number(v) -> float | None:
+    if v is None or isinstance(v, bool):
+        return None
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
+
+
+def spread(values: Sequence) -> Spread:
+    """The :class:`Spread` of ``values`` (numbers or None, one per replica; NaN, inf and
+    non-numbers count as None). A single value is its own mean, with no standard deviation."""
+    vals = tuple(_number(v) for v in values)
+    defined = [(i, v) for i, v in enumerate(vals) if v is not None]
+    n = len(defined)
+    if n == 0:
+        return Spread(vals, 0, None, None, None, None, None, None)
+    xs = [v for _, v in defined]
+    mean = math.fsum(xs) / n
+    std = math.sqrt(math.fsum((x - mean) ** 2 for x in xs) / (n - 1)) if n > 1 else None
+    i_min = min(defined, key=lambda iv: iv[1])[0]
+    i_max = max(defined, key=lambda iv: iv[1])[0]
+    return Spread(vals, n, mean, std, vals[i_min], vals[i_max], i_min, i_max)
