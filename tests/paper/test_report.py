@@ -32,6 +32,8 @@ def test_report(study_dir):
     assert pclaims.DISAGREEMENT_REASONS["PL-curling"] in text  # the default reason
     assert pclaims.DISAGREEMENT_REASONS["h-angle"] not in text
     assert "## Model differences" in text and "plane strain" in text
+    # the title question is answered by `assess`, and the report says how to run it (issue 15)
+    assert "## The title question" in text and "hydrojam assess design.toml" in text
     assert f"{pclaims.ANGLE_TOL:g} ×" in text
     from hydrojam import __version__
 

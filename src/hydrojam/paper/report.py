@@ -212,10 +212,19 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     L += [""] + _tolerance_text() + [""]
     L += ["## Model differences", ""]
     L += [f"- {text}" for text in MODEL_DIFFERENCES] + [""]
+    L += ["## The title question", "",
+          "Section IV says how far the actuator bends; whether its particles are good for jamming (how "
+          "much stiffer the actuator gets, the force it holds, vacuum jamming of the same chamber, whether "
+          "the membrane confines the gel, how fast it actuates) is answered for the default design by "
+          f"`{ASSESS_COMMAND}` (docs/assess.md, with the figures measured on it).", ""]
     text = "\n".join(L)
     path = out / "report.md"
     write_text_atomic(path, text)
     return path
+
+
+#: the command that answers the paper's title question for the default design
+ASSESS_COMMAND = "hydrojam init design.toml && hydrojam assess design.toml -o assess"
 
 
 def _workers_text(workers: int | None, scheduler: str | None) -> str:
