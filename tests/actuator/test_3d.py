@@ -243,9 +243,10 @@ def test_half_and_full_models_agree_and_never_interpenetrate(half, full, tmp_pat
     for key in ("packing_fraction", "mean_swelling_ratio"):
         assert a[key] == pytest.approx(b[key], rel=0.01)
     assert a["contacts_per_particle"] == b["contacts_per_particle"]
-    # the full model stays symmetric: its mid-plane nodes stay on y = 0 within 1e-3 of the particle's growth
+    # the full model stays nearly symmetric: its mid-plane nodes leave y = 0 by less than 1 % of
+    # a particle diameter (its two halves are meshed apart, not as mirror images)
     mid = mf.mesh.group_nodes("mid_plane")
-    assert np.abs(rf.final.x[mid, 1]).max() < 1e-3
+    assert np.abs(rf.final.x[mid, 1]).max() < 0.01 * D
     # VTU of the half model: both halves, positively oriented, the whole actuator's volume
     path = tmp_path / "half.vtu"
     write_vtu(path, mh, rh.final)
@@ -259,3 +260,25 @@ def test_half_and_full_models_agree_and_never_interpenetrate(half, full, tmp_pat
     assert signed_measures(x, cells[:, :4]).sum() == pytest.approx(
         signed_measures(rf.final.x, mf.mesh.cells[:, :4]).sum(), rel=1e-2)
     assert np.abs(x[:, 1]).max() == pytest.approx(np.abs(rf.final.x[:, 1]).max(), rel=1e-2)
+
+
+def test_hydrojam_run_in_3d_writes_every_file(tmp_path, capsys):
+    """`hydrojam run --dimension 3` at the as-prepared stimulus (nothing moves, seconds): exit 0,
+    every result file, the VTU files hold the whole actuator (the half mirrored) and metrics.json
+    its metrics; --dimension 4 is refused with one line."""
+    d = default_design()
+    design = tmp_path / "d.toml"
+    design.write_text(f"particle_layers = 1\n[mesh]\nsize = 4.0\n[stimulus]\nmu = {d.hydrogel.mu0!r}\n"
+                      f"temperature = {d.hydrogel.T0!r}\n")
+    out = tmp_path / "out"
+    rc = main(["run", str(design), "-o", str(out), "--dimension", "3", "-q"])
+    assert rc == 0, capsys.readouterr().err
+    for name in ("design.toml", "metrics.json", "history.csv", "centreline.csv", "final.png", "results.pvd"):
+        assert (out / name).is_file(), name
+    assert "dimension = 3" in (out / "design.toml").read_text()
+    vtu = meshio.read(sorted((out / "steps").glob("*.vtu"))[-1])
+    assert vtu.points[:, 1].min() == pytest.approx(-vtu.points[:, 1].max()) and vtu.points[:, 1].max() > 10
+    assert set(vtu.cell_data["mirror_image"][0]) == {0, 1}
+    rc = main(["run", str(design), "-o", str(tmp_path / "o2"), "--dimension", "4"])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and err.startswith("hydrojam: error: --dimension") and len(err.splitlines()) == 1
