@@ -88,6 +88,8 @@ def main(argv=None) -> int:
           f"curling index {m['curling_index']}, packing fraction {m['packing_fraction']:.3f}, "
           f"contacts per particle {m['contacts_per_particle']:.2f}, "
           f"stabilisation energy / elastomer energy (max over steps) {m['stabilisation_energy_ratio']:.3g}")
+    print(f"CPU time of this process {time.process_time():.0f} s (all its threads; the wall time of a loaded machine "
+          f"is longer)")
     print(f"peak memory (largest resident set of this process) {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
     print_load("load at the end")
     return 0 if res.converged else 1

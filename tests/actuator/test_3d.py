@@ -111,6 +111,9 @@ def test_the_full_model_is_two_glued_halves(full, half):
         assert _volumes(full, group) == pytest.approx(2 * _volumes(half, group), rel=1e-3)
     assert np.abs(full.mesh.points[full.mesh.group_nodes("mid_plane"), 1]).max() < 1e-9
     assert len(full.problem().dirichlet) == 1
+    assert np.allclose(full.mesh.points[full.centreline_nodes][:, :2], [X_MID, 0.0], atol=1e-9)
+    assert np.all(np.diff(full.mesh.points[full.centreline_nodes][:, 2]) < 0)  # from the clamp down
+    assert full.mesh.points[full.centreline_nodes][[0, -1], 2] == pytest.approx([0.0, -L])
 
 
 # ------------------------------------------------------------------------------------------------
