@@ -1,9 +1,12 @@
 """What one actuator simulation costs: the default design (DESIGN.md section 6) from the
 as-prepared state to (0 kT, 275 K), end to end.
 
-Run:  .venv/bin/python benchmarks/actuator.py [--set key=value ...] [--quick]
+Run:  .venv/bin/python benchmarks/actuator.py [--set key=value ...] [--quick] [--dimension 3]
 
 ``--quick`` runs one particle layer instead of five (a smoke test of the benchmark itself).
+``--dimension 3`` runs the 3D actuator (the half model unless ``--set mesh.symmetry=false``) at
+the quick mesh (4 mm) unless ``--set mesh.size=...`` says otherwise; the peak memory (the
+process's largest resident set) is printed at the end.
 Prints the problem size, the wall time split into meshing (gmsh and the model set-up), elastic
 terms (the Solid's energy, gradient and Hessian), contact (collision detection, barrier, CCD),
 linear solves and the rest (line search bookkeeping, metrics after every step, driver), Newton
@@ -15,6 +18,7 @@ phases above).
 from __future__ import annotations
 
 import argparse
+import resource
 import sys
 import time
 from pathlib import Path
@@ -31,8 +35,12 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--set", dest="overrides", action="append", default=[], help="design override key=value")
     ap.add_argument("--quick", action="store_true", help="one particle layer (smoke test)")
+    ap.add_argument("--dimension", type=int, choices=(2, 3), default=2,
+                    help="2 (plane strain) or 3 (spheres, half model, 4 mm mesh by default)")
     args = ap.parse_args(argv)
     overrides = (["particle_layers=1"] if args.quick else []) + args.overrides
+    if args.dimension == 3:
+        overrides = ["dimension=3", "mesh.size=4"] + overrides
     design = apply_overrides(default_design(), overrides)
     print_environment(["numpy", "scipy", "ipctk", "gmsh", "pypardiso"])
     print_load()
@@ -42,7 +50,9 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     model = build_model(design)
     t_mesh = time.perf_counter() - t0
-    print(f"mesh: {model.mesh.n_cells} quadratic triangles, {model.mesh.n_nodes} nodes, "
+    kind = "quadratic tetrahedra" if model.mesh.dim == 3 else "quadratic triangles"
+    half = " (half model y >= 0)" if getattr(model, "half", False) else ""
+    print(f"mesh{half}: {model.mesh.n_cells} {kind}, {model.mesh.n_nodes} nodes, "
           f"{model.mesh.points.size} DOFs, {model.n_particles} particles, "
           f"dhat {model.contact.settings.dhat:g} mm, kappa {model.contact.settings.kappa:g} MPa")
     last = [0.0]
@@ -78,6 +88,10 @@ def main(argv=None) -> int:
           f"curling index {m['curling_index']}, packing fraction {m['packing_fraction']:.3f}, "
           f"contacts per particle {m['contacts_per_particle']:.2f}, "
           f"stabilisation energy / elastomer energy (max over steps) {m['stabilisation_energy_ratio']:.3g}")
+    print(f"CPU time of this process {time.process_time():.0f} s (all its threads; the wall time of a loaded machine "
+          f"is longer)")
+    print(f"peak memory (largest resident set of this process) {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
+    print_load("load at the end")
     return 0 if res.converged else 1
 
 

@@ -108,7 +108,8 @@ BAD_DESIGNS = [
     ("particle_layers = 0\n", "particle_layers"),
     ("particle_diameterr = 16.0\n", "particle_diameterr"),
     ("[stimulus]\ntemperature = 400.0\n", "stimulus.temperature"),
-    ("dimension = 3\n", "dimension"),
+    ("dimension = 3\ncavity_depth = 15.0\n", "cavity_depth"),  # spheres deeper than the 3D cavity
+    ("[mesh]\nsymmetry = false\n", "mesh.symmetry"),  # a 2D design has no depth to cut
     # time-resolved stimulus (issue 16): each bad schedule, and a diffusivity <= 0, refused before any work
     ("[stimulus]\nschedule = [[0, 300], [60, 275], [60, 280]]\n", "stimulus.schedule: times must increase"),
     ("[stimulus]\nschedule = [[0, 300], [60, 275], [30, 280]]\n", "stimulus.schedule: times must increase"),

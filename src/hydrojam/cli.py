@@ -216,6 +216,7 @@ def run_design(
     design_file: Path = typer.Argument(..., help="Design file (TOML), e.g. from `hydrojam init`."),
     out: Path = typer.Option(..., "-o", "--out", help="Output folder (created; earlier results in it are replaced)."),
     overrides: list[str] = typer.Option([], "--set", help="Change a field, e.g. --set stimulus.temperature=295 (repeatable)."),
+    dimension: Optional[int] = typer.Option(None, "--dimension", help="2 (plane strain) or 3 (spheres; the half model unless --set mesh.symmetry=false); same as --set dimension=N."),
     vtu: bool = typer.Option(True, "--vtu/--no-vtu", help="Write a VTU file per load step and the .pvd index."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     replicas: Optional[int] = typer.Option(None, "--replicas", help="Run N replicas in parallel (jittered particle centres, see docs/replicas.md); default: the design's replicas.count."),
@@ -243,7 +244,9 @@ def run_design(
     replicas = _check_replicas(replicas)
     if not design_file.is_file():
         raise InputError(f"{design_file}: no such design file")
-    design = _design_or_exit(design_file, overrides)
+    if dimension is not None and dimension not in (2, 3):
+        raise InputError(f"--dimension: allowed 2 or 3 (got {dimension})")
+    design = _design_or_exit(design_file, ([f"dimension={dimension}"] if dimension is not None else []) + overrides)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out: {out} exists and is not a folder")
     design = _with_replicas_or_exit(design, replicas)

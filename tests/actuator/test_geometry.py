@@ -103,3 +103,15 @@ def test_circle_gaps_stay_above_the_bound_analytically():
         assert min(gaps) >= (1 - 2 * MAX_JITTER) * C * (1 - 1e-9)
         walls = np.concatenate([half_w - np.abs(x[:, 0]), top - x[:, 1], x[:, 1] - bottom]) - r0
         assert walls.min() >= (1 - MAX_JITTER) * C * (1 - 1e-9)
+
+
+@pytest.mark.parametrize("symmetry", [True, False])
+def test_3d_offsets_keep_half_spheres_on_the_symmetry_plane(symmetry):
+    """The 3D half model's particles are half spheres cut by y = 0: their offsets lie in x-z; the
+    full model's fill a ball. Both within jitter x clearance."""
+    base = Design(dimension=3, particle_layers=3, mesh={"size": 4, "symmetry": symmetry}, replicas={"count": 4})
+    off = replica_offsets(base.replica(3))
+    radius = base.replicas.jitter * base.clearance
+    assert off.shape == (3, 3)
+    assert np.all(np.linalg.norm(off, axis=1) <= radius * (1 + 1e-12))
+    assert np.all(off[:, 1] == 0.0) == symmetry

@@ -200,9 +200,10 @@ def test_bad_arguments_write_nothing(tmp_path):
         run_sweep(small_study(), out, workers=0, point_fn=cheap)
     with pytest.raises(SchedulerError, match="not a scheduler address"):
         run_sweep(small_study(), out, scheduler="nowhere", point_fn=cheap)
-    three_d = study_from_dict({"sweep": [{"name": "dim", "vary": {"dimension": [2, 3]}}]})
-    with pytest.raises(StudyError, match="sweep 'dim' point 1: dimension: only 2"):
-        run_sweep(three_d, out, point_fn=cheap)
+    # 3D points are simulated; a 3D point whose spheres do not fit the depth is refused when read
+    with pytest.raises(StudyError, match=r"sweep 'depth' point 1 .*cavity_depth: the particles do not fit"):
+        study_from_dict({"design": {"dimension": 3},
+                         "sweep": [{"name": "depth", "vary": {"cavity_depth": [16.2, 15.0]}}]})
     assert not out.exists()
 
 

@@ -214,6 +214,11 @@ class MeshSpec(BaseModel):
     model_config = _CONFIG
 
     size: float = Field(2.0, gt=0, description="target element edge length, quadratic elements [mm]")
+    symmetry: bool = Field(
+        True,
+        description="3D only: model the half y >= 0 (y = 0 is a symmetry plane: u_y = 0 there, results "
+        "mirrored); false: the whole actuator. Must stay true in 2D",
+    )
 
 
 #: most replicas of one design (each is a full simulation)
@@ -272,7 +277,8 @@ class Design(BaseModel):
     - the particles fit: across ``m d + (m + 1) c <= cavity_width``, along
       ``PL d + (PL + 1) c <= cavity_length``, and in 3D ``d + 2 c <= cavity_depth``
       (relative tolerance 1e-9): the initial mesh must be intersection-free;
-    - ``cavity_depth`` only with ``dimension = 3`` (2D is plane strain: no depth to set);
+    - ``cavity_depth`` and ``mesh.symmetry = false`` only with ``dimension = 3`` (2D is plane
+      strain: no depth to set or cut);
     - ``mesh.size <= particle_diameter / 4`` (about 12 or more quadratic edges round a particle)
       and ``mesh.size <= cavity_length``;
     - the elastomers' own checks (:class:`ElastomerSpec`).
@@ -281,7 +287,7 @@ class Design(BaseModel):
     model_config = _CONFIG
 
     dimension: Literal[2, 3] = Field(
-        2, description="2: plane strain in x-z (cylindrical particles); 3: spheres (schema only for now)"
+        2, description="2: plane strain in x-z (cylindrical particles); 3: spheres (tetrahedra; half model by default, see mesh.symmetry)"
     )
     particle_diameter: float = Field(16.0, gt=0, le=1000, description="as-prepared particle diameter d [mm]")
     particle_layers: int = Field(5, ge=1, le=100, description="number of particle layers along the axis PL [-]")
@@ -397,6 +403,10 @@ class Design(BaseModel):
             raise ValueError(
                 f"cavity_depth: only with dimension = 3 (got cavity_depth {_g(self.cavity_depth)} mm "
                 f"with dimension {self.dimension})"
+            )
+        if not self.mesh.symmetry and self.dimension != 3:
+            raise ValueError(
+                f"mesh.symmetry: false only with dimension = 3 (2D has no depth to cut; got dimension {self.dimension})"
             )
         fits = [("cavity_width", self.particles_per_layer, self.resolved_cavity_width),
                 ("cavity_length", self.particle_layers, self.resolved_cavity_length)]

@@ -29,7 +29,7 @@ def cell_fields(model: ActuatorModel, x: np.ndarray, s: float) -> dict[str, np.n
     materials = model.materials_at(s)
     for name, F in model.solid.deformation_gradients(x).items():
         cells, mat = cells_of[name], materials[name]
-        F3 = _plane_strain_3d(F)
+        F3 = F if F.shape[-1] == 3 else _plane_strain_3d(F)
         J = np.linalg.det(F3)
         P = mat.evaluate(F3, tangent=False).stress
         sigma[cells] = (np.einsum("eqij,eqkj->eqik", P, F3) / J[..., None, None]).mean(axis=1)

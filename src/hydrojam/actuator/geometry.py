@@ -79,7 +79,10 @@ def particle_centres(design: Design) -> np.ndarray:
 
 
 def mesh_design(design: Design) -> Mesh:
-    """The quadratic-triangle mesh of a 2D design (groups as in :func:`actuator_2d`)."""
+    """The quadratic-triangle mesh of a 2D design (groups as in :func:`actuator_2d`); a 3D design:
+    :func:`mesh_design_3d`."""
+    if design.dimension == 3:
+        return mesh_design_3d(design)
     return actuator_2d(
         design.resolved_cavity_width, design.resolved_cavity_length, design.side_wall_thickness,
         design.end_wall_thickness, design.strain_limit_thickness, particle_centres(design),
@@ -88,25 +91,30 @@ def mesh_design(design: Design) -> Mesh:
 
 
 def replica_offsets(design: Design) -> np.ndarray:
-    """The rigid offset of every particle centre of the design's replica (n_particles, dim) [mm].
+    """The rigid offset of every particle centre of the design's replica (n_particles, dimension) [mm].
 
     Replica index 0 (``design.replicas.index``): zeros, the design as drawn. Replica k > 0: each
-    offset is uniform in a disk (2D; a ball in 3D) of radius ``replicas.jitter`` x clearance,
-    drawn particle by particle (the order of :func:`particle_centres`) from PCG64 seeded with
-    the SeedSequence of (seed, k) and read as 53-bit uniform numbers, so a replica is the same on
-    every machine and NumPy version. Neighbours then keep a gap of at least (1 - 2 jitter) c.
+    offset is uniform in a disk of radius ``replicas.jitter`` x clearance (2D, and the 3D half
+    model, whose half spheres stay on the symmetry plane y = 0: the disk lies in x-z), or in a ball
+    (the full 3D model), drawn particle by particle (the order of :func:`particle_centres`) from
+    PCG64 seeded with the SeedSequence of (seed, k) and read as 53-bit uniform numbers, so a
+    replica is the same on every machine and NumPy version. Neighbours then keep a gap of at least
+    (1 - 2 jitter) c.
     """
-    centres = particle_centres(design)
-    n, dim = centres.shape
+    n = len(particle_centres(design))
+    dim = design.dimension
     spec = design.replicas
     if spec.index == 0:
         return np.zeros((n, dim))
+    in_plane = dim == 2 or design.mesh.symmetry
+    k = 2 if in_plane else 3
     stream = np.random.PCG64(np.random.SeedSequence([spec.seed, spec.index]))
-    u = (stream.random_raw(n * dim) >> np.uint64(11)).astype(np.float64).reshape(n, dim) * 2.0**-53
+    u = (stream.random_raw(n * k) >> np.uint64(11)).astype(np.float64).reshape(n, k) * 2.0**-53
     radius = spec.jitter * design.clearance
-    if dim == 2:
+    if in_plane:
         phi, r = 2.0 * np.pi * u[:, 0], radius * np.sqrt(u[:, 1])
-        return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+        a, b = r * np.cos(phi), r * np.sin(phi)
+        return np.column_stack([a, b]) if dim == 2 else np.column_stack([a, np.zeros(n), b])
     cos_t, phi, r = 1.0 - 2.0 * u[:, 0], 2.0 * np.pi * u[:, 1], radius * np.cbrt(u[:, 2])
     sin_t = np.sqrt(np.maximum(1.0 - cos_t**2, 0.0))
     return r[:, None] * np.column_stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t])
@@ -123,3 +131,118 @@ def jitter_particles(mesh: Mesh, design: Design) -> Mesh:
     for k, offset in enumerate(offsets):
         points[np.unique(mesh.cells[mesh.cell_groups[f"particle{k}"]])] += offset
     return replace(mesh, points=points)
+
+
+def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, side_wall: float,
+                end_wall: float, strain_limit: float, centres, radius: float, size: float,
+                symmetry: bool = True, order: int = 2) -> Mesh:
+    """The actuator in 3D (DESIGN.md section 6), quadratic tetrahedra, lengths in mm.
+
+    Cavity [-w/2, w/2] x [-D/2, D/2] x [-t1 - cavity_length, -t1] (w width, D depth); membrane:
+    the box [-w/2 - t0, w/2 + t0] x [-D/2 - t0, D/2 + t0] x [-L, 0] (L = cavity_length + 2 t1)
+    minus the cavity; strain-limit layer [-w/2 - t0 - h, -w/2 - t0] x [-D/2 - t0, D/2 + t0] x
+    [-L, 0], bonded to the membrane (shared nodes) and split at its mid-plane x = -w/2 - t0 - h/2
+    so that its mid-surface is a surface of nodes; particles: separate spheres of ``radius``
+    about ``centres`` ((n, 2) as (x, z), on y = 0; or (n, 3)).
+
+    ``symmetry``: only the half y >= 0 (particles are half spheres, the cut faces lie on y = 0);
+    otherwise the whole actuator, drawn as two halves glued on y = 0, so that the mid-plane
+    y = 0 is a surface of nodes in every body (the centreline and the section figure).
+
+    Cell groups "membrane", "strain_limit_layer", "particle0", ...; facet groups "clamp"
+    (z = 0), "free_end" (z = -L), "cavity" (the cavity's wall, without cut faces),
+    "particle<k>_boundary" (the sphere's surface, without cut faces) and "symmetry" (the cut
+    faces on y = 0; half model) or "mid_plane" (the faces on y = 0 inside the bodies; full model).
+    """
+    w, D, lc = float(cavity_width), float(cavity_depth), float(cavity_length)
+    t0, t1, h = float(side_wall), float(end_wall), float(strain_limit)
+    length = lc + 2 * t1
+    x_out, y_out = w / 2 + t0, D / 2 + t0
+    centres = np.atleast_2d(np.asarray(centres, dtype=float))
+    if centres.shape[1] == 2:
+        centres = np.column_stack([centres[:, 0], np.zeros(len(centres)), centres[:, 1]])
+    # OCC pads bounding boxes by its tolerance, which grows to about 2e-3 mm on curved faces after
+    # mirroring and gluing; distinct parallel faces lie at least min(t0, t1, h) apart
+    tol = 0.05 * min(t0, t1, h)
+    with gmsh_session():
+        set_mesh_size(size)
+        occ = gmsh.model.occ
+        # the half y >= 0 of every body, then (full model) its mirror image
+        outer = occ.addBox(-x_out, 0.0, -length, 2 * x_out, y_out, length)
+        cavity = occ.addBox(-w / 2, 0.0, -t1 - lc, w, D / 2, lc)
+        (membrane, _) = occ.cut([(3, outer)], [(3, cavity)])
+        walls = membrane + [(3, occ.addBox(-x_out - h, 0.0, -length, h / 2, y_out, length)),
+                            (3, occ.addBox(-x_out - h / 2, 0.0, -length, h / 2, y_out, length))]
+        particles = []
+        for c in centres:
+            ball = occ.addSphere(c[0], c[1], c[2], radius)
+            half = occ.addBox(c[0] - 2 * radius, 0.0, c[2] - 2 * radius, 4 * radius, 2 * radius, 4 * radius)
+            (part, _) = occ.intersect([(3, ball)], [(3, half)])
+            particles.append(part)
+        if not symmetry:
+            mirrored = occ.copy(walls)
+            occ.mirror(mirrored, 0.0, 1.0, 0.0, 0.0)
+            walls = walls + mirrored
+            for k, part in enumerate(particles):
+                other = occ.copy(part)
+                occ.mirror(other, 0.0, 1.0, 0.0, 0.0)
+                (glued, _) = occ.fragment(part, other)
+                particles[k] = glued
+        (frag, _) = occ.fragment(walls, [])  # bonded walls: conforming interfaces
+        occ.synchronize()
+        body = [t for d, t in frag if d == 3]
+        sll = [t for t in body if bounding_box(3, t)[1, 0] <= -x_out + tol]
+        mem = [t for t in body if t not in sll]
+        particle_tags = [[t for d, t in part if d == 3] for part in particles]
+
+        def faces_of(volumes, combined=True):
+            return [t for _, t in gmsh.model.getBoundary([(3, v) for v in volumes], combined=combined,
+                                                          oriented=False)]
+
+        def on_plane(t, axis, value):
+            bb = bounding_box(2, t)
+            return abs(bb[0, axis] - value) < tol and abs(bb[1, axis] - value) < tol
+
+        wall_faces = faces_of(body)
+        clamp = [t for t in wall_faces if on_plane(t, 2, 0.0)]
+        free_end = [t for t in wall_faces if on_plane(t, 2, -length)]
+        cut = [t for t in wall_faces if on_plane(t, 1, 0.0)]
+        cavity_faces = []
+        for t in wall_faces:
+            bb = bounding_box(2, t)
+            if t not in cut and bb[0, 0] >= -w / 2 - tol and bb[1, 0] <= w / 2 + tol \
+                    and bb[0, 1] >= -D / 2 - tol and bb[1, 1] <= D / 2 + tol \
+                    and bb[0, 2] >= -t1 - lc - tol and bb[1, 2] <= -t1 + tol:
+                cavity_faces.append(t)
+        cells = {"membrane": mem, "strain_limit_layer": sll}
+        facets = {"clamp": clamp, "free_end": free_end, "cavity": cavity_faces}
+        plane_faces = list(cut)
+        for k, tags in enumerate(particle_tags):
+            cells[f"particle{k}"] = tags
+            surface = faces_of(tags)
+            flat = [t for t in surface if on_plane(t, 1, 0.0)]
+            facets[f"particle{k}_boundary"] = [t for t in surface if t not in flat]
+            plane_faces += flat
+        if symmetry:
+            facets["symmetry"] = plane_faces
+        else:  # interior faces on y = 0: shared by the two halves of a body
+            inner = set(faces_of(body, combined=False)) - set(wall_faces)
+            plane_faces = [t for t in inner if on_plane(t, 1, 0.0)]
+            for tags in particle_tags:
+                plane_faces += [t for t in set(faces_of(tags, combined=False)) - set(faces_of(tags))
+                                if on_plane(t, 1, 0.0)]
+            facets["mid_plane"] = plane_faces
+        add_groups(3, cells, facets)
+        return generate(3, order)
+
+
+def mesh_design_3d(design: Design) -> Mesh:
+    """The quadratic-tetrahedron mesh of a 3D design (groups as in :func:`actuator_3d`); the half
+    model y >= 0 unless ``mesh.symmetry`` is false. Particle centres from :func:`particle_centres`
+    (x, z) on the plane y = 0."""
+    return actuator_3d(
+        design.resolved_cavity_width, design.resolved_cavity_depth, design.resolved_cavity_length,
+        design.side_wall_thickness, design.end_wall_thickness, design.strain_limit_thickness,
+        particle_centres(design), design.particle_diameter / 2, design.mesh.size,
+        symmetry=design.mesh.symmetry, order=2,
+    )

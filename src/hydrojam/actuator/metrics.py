@@ -1,7 +1,8 @@
 """Actuator metrics as pure functions of node positions (DESIGN.md sections 6 and 7).
 
 Every function takes reference positions ``X`` and current positions ``x`` as arrays of shape
-(m, 2) in mm, in the (x, z) plane of DESIGN.md section 6: x is the bending direction (the
+(m, 2) in mm, in the (x, z) plane of DESIGN.md section 6 (a 3D actuator's are (m, 3), (x, y, z),
+for :func:`bending_angle_3d_deg` and :func:`enclosed_volume`; the others take its (x, z) columns): x is the bending direction (the
 strain-limit layer lies on the -x side), z the actuator axis, the clamp at z = 0 and the free end
 at z = -L.
 
@@ -61,9 +62,9 @@ STATE_METRICS: tuple[Metric, ...] = (
     Metric("curling_index", "-", "share of the centreline rotation in the clamp half (None while straight)",
            float, "state", "curling index"),
     Metric("max_curvature_per_mm", "1/mm", "largest centreline curvature", float, "state", "κ_max"),
-    Metric("packing_fraction", "-", "particle area / cavity area", float, "state", "φ"),
+    Metric("packing_fraction", "-", "particle area / cavity area (3D: volumes)", float, "state", "φ"),
     Metric("contacts_per_particle", "-", "mean coordination number", float, "state", "Z"),
-    Metric("mean_swelling_ratio", "-", "particle area / as-prepared area", float, "state"),
+    Metric("mean_swelling_ratio", "-", "particle area / as-prepared area (3D: volumes)", float, "state"),
 )
 
 #: what a run reports besides its final state's metrics, in the order of metrics.json
@@ -240,6 +241,55 @@ def bending_angle_deg(X_face, x_face) -> float:
     return face_rotation_deg(X_face, x_face)
 
 
+def _best_fit_plane_axis(centred: np.ndarray) -> np.ndarray:
+    """The direction in the best-fit plane of centred 3D points that is normal to y, as (x, z).
+
+    The plane's normal n is the last right-singular vector (least spread); y x n lies in the plane
+    and in the x-z plane. Falls back to the points' principal direction in (x, z) when the plane
+    holds the y axis' normal (n along y: the face turned edge-on to the x-z plane)."""
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    n = vt[-1]
+    axis = np.array([n[2], -n[0]])  # (y x n) in (x, z): (n_z, -n_x)
+    if np.linalg.norm(axis) < 1e-6:
+        return _principal_direction(centred[:, [0, 2]])
+    return axis / np.linalg.norm(axis)
+
+
+def bending_angle_3d_deg(X_face, x_face) -> float:
+    """Bending angle theta [deg] of a 3D actuator (DESIGN.md section 7): the rotation about y of
+    the free-end face's best-fit plane, positive toward the strain-limit side (-x), in (-180, 180].
+
+    The face's orientation is the line its best-fit plane (least-squares, SVD of the centred node
+    positions) cuts in the x-z plane; the current line is oriented like the reference one by the
+    order of the nodes' projections on it, and theta is the clockwise angle between the two in
+    the (x right, z up) plane, exactly as :func:`face_rotation_deg` in 2D. For a face that only
+    turns about y this is its rotation; a twist about the axis or a tilt about x does not count.
+
+    X_face, x_face: reference and current positions of the face's nodes, shape (m, 3), m >= 3 [mm]
+    (the half y >= 0 of the face in a half model gives the same plane).
+    """
+    X, x = np.asarray(X_face, dtype=float), np.asarray(x_face, dtype=float)
+    if X.ndim != 2 or X.shape[1] != 3 or X.shape != x.shape or len(X) < 3:
+        raise ValueError(f"need reference and current face positions of equal shape (m >= 3, 3), got {X.shape}, {x.shape}")
+    P, p = X - X.mean(axis=0), x - x.mean(axis=0)
+    d_ref, d_cur = _best_fit_plane_axis(P), _best_fit_plane_axis(p)
+    if np.sum((P[:, [0, 2]] @ d_ref) * (p[:, [0, 2]] @ d_cur)) < 0.0:
+        d_cur = -d_cur
+    angle = float(np.degrees(_clockwise_angle(d_ref, d_cur)))
+    return 180.0 if angle <= -180.0 else angle
+
+
+def enclosed_volume(points, triangles) -> float:
+    """Volume [mm^3] enclosed by triangles (k, 3) of node indices into ``points`` (m, 3) [mm],
+    oriented consistently: |sum of a . (b x c)| / 6 (the divergence theorem, cones from the
+    origin). An open surface whose rim lies on a plane through the origin (a half model's cut
+    on y = 0) gives the volume it closes off with that plane: the missing cap adds no cone."""
+    p = np.asarray(points, dtype=float)
+    t = np.asarray(triangles, dtype=np.int64)
+    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
+    return abs(float(np.einsum("ij,ij->", a, np.cross(b, c)))) / 6.0
+
+
 def tip_displacement(X_face, x_face) -> tuple[float, float]:
     """Free-end displacement (dx, dz) [mm] of DESIGN.md section 7: the face centroid's displacement.
 
@@ -398,7 +448,8 @@ def polygon_area(points, segments=None) -> float:
 
 
 def packing_fraction(particle_area: float, cavity_area: float) -> float:
-    """Packing fraction [-]: the share of the cavity filled by particles (2D: areas in mm^2).
+    """Packing fraction [-]: the share of the cavity filled by particles (2D: areas in mm^2; 3D:
+    volumes in mm^3, the same function).
 
     particle_area: total area of the particles [mm^2]; cavity_area: area of the cavity [mm^2], > 0.
     """

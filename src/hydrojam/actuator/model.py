@@ -21,10 +21,12 @@ from hydrojam.fem.mesh import Mesh
 from hydrojam.actuator.geometry import jitter_particles, mesh_design
 from hydrojam.actuator.metrics import (
     STATE_METRICS,
+    bending_angle_3d_deg,
     bending_angle_deg,
     centreline_profile,
     contacts_per_particle,
     curling_index,
+    enclosed_volume,
     packing_fraction,
     polygon_area,
     tip_displacement,
@@ -42,6 +44,10 @@ from hydrojam.fem.volume import LocalVolumeTerm
 
 DHAT_PER_CLEARANCE = 0.8  # barrier activation distance / initial clearance
 KAPPA_PER_MEMBRANE_MODULUS = 1.0  # barrier stiffness / membrane shear modulus (see build_model)
+#: 3D continuous collision detection: Tight Inclusion at tolerance 1e-3, at most 1e5 iterations
+#: (ipctk's 1e-6 and 1e7 spent over half of a 3D run in CCD; docs/actuator.md "3D"). Still
+#: conservative: every step stays collision-free. 2D keeps ipctk's defaults.
+CCD_3D = {"ccd_tolerance": 1e-3, "ccd_max_iterations": 100_000}
 WALL_COMPONENT = -1  # contact component of the membrane and strain-limit layer (one bonded body)
 
 #: body ids written to results (cell data ``body_id``): particles are PARTICLE_BODY + k
@@ -53,9 +59,10 @@ MEMBRANE, STRAIN_LIMIT_LAYER, PARTICLES = "membrane", "strain_limit_layer", "par
 
 
 def check_supported(design: Design) -> None:
-    """Refuse, before any work, what the schema holds but the simulator does not do yet (3D)."""
-    if design.dimension != 2:
-        raise DesignError(f"dimension: only 2 (plane strain) is simulated so far; allowed: 2 (got {design.dimension})")
+    """Refuse, before any work, what the schema holds but the simulator does not do (nothing at
+    present: 2D and 3D designs are both simulated; the design's own checks refuse bad ones)."""
+    if design.dimension not in (2, 3):  # pragma: no cover - the schema allows only 2 and 3
+        raise DesignError(f"dimension: allowed: 2, 3 (got {design.dimension})")
 
 
 @dataclass(frozen=True)
@@ -79,9 +86,16 @@ class ActuatorModel:
     free_end_nodes: np.ndarray
     centreline_nodes: np.ndarray  # strain-limit layer mid-line, ordered from the clamp
     particle_cells: list[np.ndarray]  # cell indices of each particle
-    cavity_segments: np.ndarray  # (k, 2) straight pieces of the cavity wall, node indices
+    cavity_segments: np.ndarray  # straight pieces of the cavity wall, node indices: (k, 2) segments in 2D, (k, 3) triangles in 3D
     body_id: np.ndarray  # (n_cells,) MEMBRANE_BODY, STRAIN_LIMIT_BODY, PARTICLE_BODY + k
     components: np.ndarray  # (n_nodes,) contact component of every node
+    #: 3D half model: the nodes on the symmetry plane y = 0, held at u_y = 0 (None otherwise)
+    symmetry_nodes: np.ndarray | None = None
+
+    @property
+    def half(self) -> bool:
+        """True for the 3D half model (y >= 0; the results are mirrored about y = 0)."""
+        return self.symmetry_nodes is not None
 
     @property
     def n_particles(self) -> int:
@@ -112,8 +126,11 @@ class ActuatorModel:
             return [solid.with_materials(self.materials_at(s)), contact, volume, *extra_terms]
 
         G = self.membrane.shear_modulus_ref
-        return Problem(self.mesh.points, terms, [fixed(self.clamp_nodes, 2)],
-                       force_scale=G * self.design.particle_diameter)
+        dim = self.mesh.dim
+        bcs = [fixed(self.clamp_nodes, dim)]
+        if self.symmetry_nodes is not None:
+            bcs.append(fixed(np.setdiff1d(self.symmetry_nodes, self.clamp_nodes), dim, [1]))
+        return Problem(self.mesh.points, terms, bcs, force_scale=G * self.design.particle_diameter ** (dim - 1))
 
     def kinetic_volume_term(self) -> LocalVolumeTerm:
         """On a timed path: the term "volume" holding the particles' water content (their volume,
@@ -132,7 +149,19 @@ def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
     nodes = np.unique(mesh.cells[mesh.cell_groups["strain_limit_layer"]])
     tol = 1e-6 * design.length
     on = nodes[np.abs(mesh.points[nodes, 0] - x_mid) < tol]
-    return on[np.argsort(-mesh.points[on, 1])]
+    if mesh.dim == 3:  # the mid-surface's line on the plane y = 0
+        on = on[np.abs(mesh.points[on, 1]) < tol]
+    return on[np.argsort(-mesh.points[on, -1])]
+
+
+#: straight pieces of a quadratic facet, corners then mid nodes (meshio order): 2 segments of a
+#: line3, 4 triangles of a triangle6
+_SPLIT_FACET = {3: np.array([[0, 2], [2, 1]]), 6: np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])}
+
+
+def _straight_pieces(facets: np.ndarray) -> np.ndarray:
+    table = _SPLIT_FACET.get(facets.shape[1])
+    return facets if table is None else facets[:, table].reshape(-1, table.shape[1])
 
 
 def build_model(design: Design) -> ActuatorModel:
@@ -158,6 +187,16 @@ def build_model(design: Design) -> ActuatorModel:
         components[np.unique(mesh.cells[cells])] = k
         body_id[cells] = PARTICLE_BODY + k
     facets = mesh.boundary_facets()
+    symmetry_nodes, ccd = None, {}
+    if design.dimension == 3:
+        # only the cavity's wall and the particles' surfaces can touch: the collision mesh (the
+        # cut faces on y = 0 of a half model are no surfaces of the actuator, and the groups
+        # leave them out); the walls' outer faces would only add work to every CCD
+        facets = np.concatenate([mesh.facet_groups["cavity"]]
+                                + [mesh.facet_groups[f"particle{k}_boundary"] for k in range(n_p)])
+        if design.mesh.symmetry:
+            symmetry_nodes = mesh.group_nodes("symmetry")
+        ccd = CCD_3D
     # dhat: as wide as the clearance allows (the barrier must start inactive, so that the
     # as-prepared state is stress-free). Measured on a one-particle actuator: dhat = 0.8 c took
     # 928 Newton iterations to T = 275 K, dhat = 0.5 c 1164 and the mesh-relative default (1% of
@@ -173,10 +212,10 @@ def build_model(design: Design) -> ActuatorModel:
     # inside the spread of the path dependence (docs/actuator.md).
     kappa = KAPPA_PER_MEMBRANE_MODULUS * membrane.shear_modulus_ref
     settings = default_settings(mesh.points, facets, membrane.shear_modulus_ref,
-                                dhat=DHAT_PER_CLEARANCE * design.clearance, kappa=kappa, friction=design.friction)
+                                dhat=DHAT_PER_CLEARANCE * design.clearance, kappa=kappa, friction=design.friction,
+                                **ccd)
     contact = Contact(mesh.points, facets, components, settings)
-    cav = mesh.facet_groups["cavity"]
-    segments = cav[:, [0, 2, 2, 1]].reshape(-1, 2) if cav.shape[1] == 3 else cav
+    segments = _straight_pieces(mesh.facet_groups["cavity"])
     if design.stimulus.schedule is not None:  # time-resolved: the particles' kinetics set the path
         path = timed_stimulus_path(design.hydrogel, design.stimulus.mu, design.stimulus.schedule,
                                    design.particle_diameter, design.hydrogel.diffusivity, dimension=design.dimension)
@@ -188,6 +227,7 @@ def build_model(design: Design) -> ActuatorModel:
         strain_limit=strain_limit, gel=gel, clamp_nodes=mesh.group_nodes("clamp"),
         free_end_nodes=mesh.group_nodes("free_end"), centreline_nodes=_centreline(mesh, design),
         particle_cells=particle_cells, cavity_segments=segments, body_id=body_id, components=components,
+        symmetry_nodes=symmetry_nodes,
     )
 
 
@@ -196,7 +236,8 @@ def build_model(design: Design) -> ActuatorModel:
 
 
 def particle_areas(model: ActuatorModel, x: np.ndarray) -> np.ndarray:
-    """Current area of each particle (n_particles,) [mm^2] (integrated det F over the reference)."""
+    """Current area (2D) [mm^2] or volume (3D) [mm^3] of each particle (n_particles,), integrated
+    det F over the reference (the half of each particle in a 3D half model)."""
     per_cell = model.solid.current_volumes(x)[PARTICLES]  # the particles' cells, particle by particle
     bounds = np.cumsum([len(c) for c in model.particle_cells])[:-1]
     return np.array([part.sum() for part in np.split(per_cell, bounds)])
@@ -207,6 +248,8 @@ def measure(model: ActuatorModel, x: np.ndarray) -> dict:
     :data:`~hydrojam.actuator.metrics.STATE_METRICS` (names, units and meanings are defined
     there), in that order. Contacts per particle: particle-particle pairs count for both,
     particle-wall pairs once."""
+    if model.mesh.dim == 3:
+        return _measure_3d(model, x)
     X = model.mesh.points
     fe, cl = model.free_end_nodes, model.centreline_nodes
     dx, dz = tip_displacement(X[fe], x[fe])
@@ -225,5 +268,35 @@ def measure(model: ActuatorModel, x: np.ndarray) -> dict:
         "packing_fraction": packing_fraction(float(areas.sum()), cavity),
         "contacts_per_particle": contacts_per_particle(pairs, set(range(model.n_particles))),
         "mean_swelling_ratio": float(areas.sum() / ref_area),
+    }
+    return {m.name: values[m.name] for m in STATE_METRICS}
+
+
+def _measure_3d(model: ActuatorModel, x: np.ndarray) -> dict:
+    """:func:`measure` of a 3D actuator (DESIGN.md section 7), positions x (n, 3) [mm]: the bending
+    angle from the free-end face's best-fit plane, the (x, z) displacement of that face's node
+    centroid, the profile of the strain-limit layer's mid-surface along y = 0 (in the x-z
+    plane), particle and cavity volumes. The half model measures its half: the face's plane and
+    centroid, the volume ratios and the contacts per particle are those of the whole actuator
+    by symmetry. The swelling ratio is over the meshed particles' as-prepared volume."""
+    X = model.mesh.points
+    fe, cl = model.free_end_nodes, model.centreline_nodes
+    xz = [0, 2]
+    dx, dz = tip_displacement(X[fe][:, xz], x[fe][:, xz])
+    profile = centreline_profile(X[cl][:, xz], x[cl][:, xz])
+    volumes = particle_areas(model, x)
+    ref_volume = float(particle_areas(model, X).sum())
+    cavity = enclosed_volume(x, model.cavity_segments)
+    pairs = model.contact.contact_pairs(x)
+    ci = curling_index(profile)
+    values = {
+        "bending_angle_deg": bending_angle_3d_deg(X[fe], x[fe]) + 0.0,
+        "tip_dx_mm": float(dx) + 0.0,
+        "tip_dz_mm": float(dz) + 0.0,
+        "curling_index": None if ci is None else float(ci),
+        "max_curvature_per_mm": float(np.max(np.abs(profile.curvature))),
+        "packing_fraction": packing_fraction(float(volumes.sum()), cavity),
+        "contacts_per_particle": contacts_per_particle(pairs, set(range(model.n_particles))),
+        "mean_swelling_ratio": float(volumes.sum() / ref_volume),
     }
     return {m.name: values[m.name] for m in STATE_METRICS}

@@ -15,6 +15,7 @@ from hydrojam._io import atomic_path
 from hydrojam.actuator.fields import cell_fields
 from hydrojam.actuator.metrics import centreline_profile
 from hydrojam.actuator.model import PARTICLE_BODY
+from hydrojam.fem.elements import element_for_meshio_type
 
 
 _TRI6_SPLIT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
@@ -26,20 +27,48 @@ def _outline_segments(mesh) -> np.ndarray:
     return f[:, [0, 2, 2, 1]].reshape(-1, 2) if f.shape[1] == 3 else f
 
 
+def _mid_section(model, fields):
+    """A 3D actuator's section y = 0 as straight triangles: (triangles (k, 3) of node indices,
+    body id and swelling ratio of each, outline segments (m, 2)). The faces of the cells on the
+    y >= 0 side that lie on the plane y = 0 (the half model's cut faces, the whole model's
+    mid-plane), each tri6 split into 4 triangles; the outline is their edges used once."""
+    mesh = model.mesh
+    X = mesh.points
+    tol = 1e-6 * model.design.length
+    local = element_for_meshio_type(mesh.cell_type).facets  # (4, 6) tri6 faces of a tetra10
+    upper = np.flatnonzero(X[mesh.cells[:, :4], 1].mean(axis=1) > 0.0)
+    faces = mesh.cells[upper][:, local]  # (c, 4, 6)
+    flat = np.all(np.abs(X[faces[..., :3], 1]) < tol, axis=2)
+    owner = np.repeat(upper[:, None], local.shape[0], axis=1)[flat]
+    faces = faces[flat]
+    tris = faces[:, _TRI6_SPLIT].reshape(-1, 3)
+    body = np.repeat(fields["body_id"][owner], 4)
+    swell = np.repeat(fields["swelling_ratio"][owner], 4)
+    edges = faces[:, [0, 3, 3, 1, 1, 4, 4, 2, 2, 5, 5, 0]].reshape(-1, 2)
+    _, first, counts = np.unique(np.sort(edges, axis=1), axis=0, return_index=True, return_counts=True)
+    return tris, body, swell, edges[first[counts == 1]]
+
+
 def plot_actuator(model, state, path: str | os.PathLike) -> None:
     """The actuator at ``state`` over its undeformed outline (left) and the centreline curvature
     profile (right). Particles coloured by swelling ratio (gel volume / dry volume); membrane
-    light grey, strain-limit layer dark grey. Lengths in mm."""
+    light grey, strain-limit layer dark grey. Lengths in mm. A 3D actuator is drawn as its
+    section y = 0 (the symmetry plane: half of every particle, the walls and the strain-limit
+    layer cut through the middle), seen along -y."""
     mesh, X, x = model.mesh, model.mesh.points, state.x
     fields = cell_fields(model, x, state.s)
-    cells = mesh.cells
-    tris = cells[:, _TRI6_SPLIT].reshape(-1, 3) if cells.shape[1] == 6 else cells
-    rep = 4 if cells.shape[1] == 6 else 1
-    body = np.repeat(fields["body_id"], rep)
-    swell = np.repeat(fields["swelling_ratio"], rep)
+    if mesh.dim == 3:
+        tris, body, swell, seg = _mid_section(model, fields)
+        X, x = X[:, [0, 2]], x[:, [0, 2]]
+    else:
+        cells = mesh.cells
+        tris = cells[:, _TRI6_SPLIT].reshape(-1, 3) if cells.shape[1] == 6 else cells
+        rep = 4 if cells.shape[1] == 6 else 1
+        body = np.repeat(fields["body_id"], rep)
+        swell = np.repeat(fields["swelling_ratio"], rep)
+        seg = _outline_segments(mesh)
     fig = Figure(figsize=(11, 6.5))
     ax, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.25, 1]})
-    seg = _outline_segments(mesh)
     ax.add_collection(LineCollection(X[seg], colors="0.55", linewidths=0.7, linestyles="--"))
     gel = body >= PARTICLE_BODY
     polys = PolyCollection(x[tris[~gel]], facecolors=np.where(body[~gel, None] == 0, [[0.82] * 3], [[0.45] * 3]),
@@ -61,7 +90,8 @@ def plot_actuator(model, state, path: str | os.PathLike) -> None:
     ax.set_ylabel("z [mm]")
     fig.colorbar(pc, ax=ax, shrink=0.8, label="particle swelling ratio J (volume / dry volume)")
     m = state.metrics
-    ax.set_title(f"T = {state.T:.1f} K, mu = {state.mu:.3g} kT, s = {state.s:.3g}\n"
+    where = "3D, section y = 0; " if mesh.dim == 3 else ""
+    ax.set_title(f"{where}T = {state.T:.1f} K, mu = {state.mu:.3g} kT, s = {state.s:.3g}\n"
                  f"bending angle {m['bending_angle_deg']:.1f} deg, tip dx {m['tip_dx_mm']:.1f} mm, "
                  f"dz {m['tip_dz_mm']:.1f} mm", fontsize=10)
     cl = model.centreline_nodes

@@ -4,7 +4,8 @@ Layout of an output folder ``OUT``::
 
     design.toml       the resolved design (every field explicit)
     history.csv       metrics at every accepted load step
-    steps/step_NNNN.vtu  the state of every accepted step (quadratic triangles)
+    steps/step_NNNN.vtu  the state of every accepted step (quadratic triangles; 3D: quadratic
+                      tetrahedra, a half model mirrored so that the whole actuator shows)
     results.pvd       ParaView's index of the steps, a time series in the load parameter s
                       (in the time [s] with a time-resolved stimulus)
     centreline.csv    final centreline profile: arc length, rotation, curvature
@@ -18,7 +19,9 @@ layer, 2 + k particle k), ``swelling_ratio`` (gel volume over dry-network volume
 det F; 1 in the elastomers, which do not swell), ``cauchy_stress`` [MPa] (3 x 3, plane strain:
 the out-of-plane component included) and ``von_mises_stress`` [MPa], cell averages over
 quadrature points. 2D results are written in the x-z plane of ParaView (y = 0), so the axes mean
-what they mean in hydrojam; view them along -y.
+what they mean in hydrojam; view them along -y. A 3D half model's files hold both halves (cell
+field ``mirror_image``: 0 computed, 1 its mirror image about y = 0). centreline.csv and final.png
+of a 3D run: the strain-limit layer's mid-surface along y = 0, and the section y = 0.
 """
 
 from __future__ import annotations
@@ -50,12 +53,53 @@ def _xyz(p2: np.ndarray) -> np.ndarray:
     return np.column_stack([p2[:, 0], np.zeros(len(p2)), p2[:, 1]])
 
 
+#: tetra10 node order (meshio) of a mirror image: corners 1 and 2 swapped, mid nodes following
+_TETRA10_FLIP = np.array([0, 2, 1, 3, 6, 5, 4, 7, 9, 8])
+
+
+def mirrored_half(model: ActuatorModel, x: np.ndarray, fields: dict[str, np.ndarray]):
+    """The whole actuator from a 3D half model (y >= 0) and its mirror image about y = 0.
+
+    Returns (reference points (n', 3), cells (2 n_cells, 10), displacement (n', 3), cell fields):
+    the nodes on the symmetry plane are shared by both halves, the mirrored cells are reordered
+    to stay positively oriented, the displacement's y component and the stress's xy and yz
+    components change sign on the mirror side; the cell field ``mirror_image`` is 1 there."""
+    X = model.mesh.points
+    n = len(X)
+    on_plane = np.zeros(n, dtype=bool)
+    on_plane[model.symmetry_nodes] = True
+    off = np.flatnonzero(~on_plane)
+    image = np.arange(n)
+    image[off] = n + np.arange(len(off))
+    flip = np.array([1.0, -1.0, 1.0])
+    points = np.vstack([X, X[off] * flip])
+    u = x - X
+    disp = np.vstack([u, u[off] * flip])
+    cells = np.vstack([model.mesh.cells, image[model.mesh.cells][:, _TETRA10_FLIP]])
+    out = {}
+    for name, v in fields.items():
+        w = v
+        if name == "cauchy_stress":
+            w = v * (flip[:, None] * flip[None, :])
+        out[name] = np.concatenate([v, w])
+    out["mirror_image"] = np.repeat(np.array([0, 1], dtype=np.int32), model.mesh.n_cells)
+    return points, cells, disp, out
+
+
 def write_vtu(path: Path, model: ActuatorModel, state: StepState) -> None:
-    """One state as a VTU file (atomic): reference points, displacement and the cell fields."""
+    """One state as a VTU file (atomic): reference points, displacement and the cell fields (a 3D
+    half model mirrored about y = 0: :func:`mirrored_half`)."""
     fields = cell_fields(model, state.x, state.s)
+    X, cells = model.mesh.points, model.mesh.cells
+    if model.mesh.dim == 2:
+        X, u = _xyz(X), _xyz(state.x - X)
+    elif getattr(model, "half", False):
+        X, cells, u, fields = mirrored_half(model, state.x, fields)
+    else:
+        u = state.x - X
     mesh = meshio.Mesh(
-        _xyz(model.mesh.points), [(model.mesh.cell_type, model.mesh.cells)],
-        point_data={"displacement": _xyz(state.x - model.mesh.points)},
+        X, [(model.mesh.cell_type, cells)],
+        point_data={"displacement": u},
         cell_data={k: [v.reshape(len(v), -1) if v.ndim == 3 else v] for k, v in fields.items()},
     )
     with atomic_path(path) as tmp:
@@ -143,7 +187,8 @@ class ResultWriter:
         path); returns the metrics written."""
         model, final = self.model, result.final
         cl = model.centreline_nodes
-        prof = centreline_profile(model.mesh.points[cl], final.x[cl])
+        xz = [0, -1]  # 3D: the profile in the x-z plane
+        prof = centreline_profile(model.mesh.points[cl][:, xz], final.x[cl][:, xz])
         rows = [{"reference_arc_length_mm": a, "arc_length_mm": b, "rotation_deg": math.degrees(r),
                  "curvature_per_mm": k}
                 for a, b, r, k in zip(prof.reference_arc_length, prof.arc_length, prof.rotation, prof.curvature)]
@@ -160,4 +205,4 @@ class ResultWriter:
         return metrics
 
 
-__all__ = ["ResultWriter", "write_vtu", "pvd_text", "history_row", "ordered_metrics", "HISTORY_COLUMNS"]
+__all__ = ["ResultWriter", "write_vtu", "mirrored_half", "pvd_text", "history_row", "ordered_metrics", "HISTORY_COLUMNS"]

@@ -64,7 +64,11 @@ class ContactSettings:
     dhat: activation distance [mm]; kappa: barrier stiffness [MPa] (the contact pressure scale);
     friction: Coulomb coefficient [-] (0: frictionless); friction_eps: slip displacement below
     which friction is static [mm] (IPC's eps_v times the step); pair_friction: coefficients for
-    particular component pairs {(a, b): mu}, overriding ``friction``.
+    particular component pairs {(a, b): mu}, overriding ``friction``. ccd_tolerance,
+    ccd_max_iterations: the Tight Inclusion CCD's tolerance [-] and iteration cap (None: ipctk's
+    defaults, 1e-6 and 1e7). Tight Inclusion is conservative at any tolerance (the step it
+    returns is collision-free; a looser tolerance only cuts it a little shorter than the time of
+    impact), so these trade step length for speed, never the guarantee.
     """
 
     dhat: float
@@ -72,6 +76,8 @@ class ContactSettings:
     friction: float = 0.0
     friction_eps: float | None = None
     pair_friction: dict | None = None
+    ccd_tolerance: float | None = None
+    ccd_max_iterations: int | None = None
 
     def __post_init__(self):
         if not self.dhat > 0:
@@ -149,6 +155,11 @@ class Contact(EnergyTerm):
         if flt is not None:
             self._cm.can_collide = flt
         self._barrier = ipctk.BarrierPotential(settings.dhat, settings.kappa, True)
+        self._ccd = None
+        if settings.ccd_tolerance is not None or settings.ccd_max_iterations is not None:
+            self._ccd = ipctk.TightInclusionCCD(
+                1e-6 if settings.ccd_tolerance is None else float(settings.ccd_tolerance),
+                10_000_000 if settings.ccd_max_iterations is None else int(settings.ccd_max_iterations))
         self._cache_key = None
         self._cache = None
         self._friction = None
@@ -220,7 +231,9 @@ class Contact(EnergyTerm):
         """Largest collision-free fraction of the step x -> x + dx (continuous collision detection)."""
         V0 = self._vertices(x)
         V1 = self._vertices(np.asarray(x) + np.asarray(dx).reshape(np.shape(x)))
-        return float(ipctk.compute_collision_free_stepsize(self._cm, V0, V1))
+        if self._ccd is None:
+            return float(ipctk.compute_collision_free_stepsize(self._cm, V0, V1))
+        return float(ipctk.compute_collision_free_stepsize(self._cm, V0, V1, 0.0, None, self._ccd))
 
     # -- diagnostics ---------------------------------------------------------------------------
 
