@@ -113,3 +113,14 @@ def finite_or_none(value):
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     return value
+
+
+def finite_number(value) -> float | None:
+    """A value read as a finite float, or None (None, a flag, "", NaN, inf, an unreadable string)."""
+    if value is None or isinstance(value, bool):
+        return None
+    try:
+        f = float(value)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None

@@ -258,16 +258,24 @@ def measure(model: ActuatorModel, x: np.ndarray) -> dict:
     cavity = polygon_area(x, model.cavity_segments)
     ref_area = model.n_particles * np.pi * model.design.particle_diameter**2 / 4
     pairs = model.contact.contact_pairs(x)
+    return _state_metrics(model, bending_angle_deg(X[fe], x[fe]), dx, dz, profile, float(areas.sum()),
+                          ref_area, cavity, pairs)
+
+
+def _state_metrics(model: ActuatorModel, angle: float, dx: float, dz: float, profile, particles: float,
+                   reference: float, cavity: float, pairs) -> dict:
+    """The state metrics in the registry's order from their measured pieces (2D areas [mm^2] or
+    3D volumes [mm^3] of the particles, their as-prepared total and the cavity)."""
     ci = curling_index(profile)
     values = {
-        "bending_angle_deg": bending_angle_deg(X[fe], x[fe]) + 0.0,  # + 0.0: no "-0.0" in results
+        "bending_angle_deg": float(angle) + 0.0,  # + 0.0: no "-0.0" in results
         "tip_dx_mm": float(dx) + 0.0,
         "tip_dz_mm": float(dz) + 0.0,
         "curling_index": None if ci is None else float(ci),
         "max_curvature_per_mm": float(np.max(np.abs(profile.curvature))),
-        "packing_fraction": packing_fraction(float(areas.sum()), cavity),
+        "packing_fraction": packing_fraction(particles, cavity),
         "contacts_per_particle": contacts_per_particle(pairs, set(range(model.n_particles))),
-        "mean_swelling_ratio": float(areas.sum() / ref_area),
+        "mean_swelling_ratio": float(particles / reference),
     }
     return {m.name: values[m.name] for m in STATE_METRICS}
 
@@ -288,15 +296,5 @@ def _measure_3d(model: ActuatorModel, x: np.ndarray) -> dict:
     ref_volume = float(particle_areas(model, X).sum())
     cavity = enclosed_volume(x, model.cavity_segments)
     pairs = model.contact.contact_pairs(x)
-    ci = curling_index(profile)
-    values = {
-        "bending_angle_deg": bending_angle_3d_deg(X[fe], x[fe]) + 0.0,
-        "tip_dx_mm": float(dx) + 0.0,
-        "tip_dz_mm": float(dz) + 0.0,
-        "curling_index": None if ci is None else float(ci),
-        "max_curvature_per_mm": float(np.max(np.abs(profile.curvature))),
-        "packing_fraction": packing_fraction(float(volumes.sum()), cavity),
-        "contacts_per_particle": contacts_per_particle(pairs, set(range(model.n_particles))),
-        "mean_swelling_ratio": float(volumes.sum() / ref_volume),
-    }
-    return {m.name: values[m.name] for m in STATE_METRICS}
+    return _state_metrics(model, bending_angle_3d_deg(X[fe], x[fe]), dx, dz, profile, float(volumes.sum()),
+                          ref_volume, cavity, pairs)

@@ -5,18 +5,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from hydrojam._io import finite_or_none
+from hydrojam._io import finite_number
 
 
 def number(v) -> float | None:
     """A finite float or None (None, "", NaN, inf, an unreadable string -> None)."""
-    if v is None or isinstance(v, bool):
-        return None
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        return None
-    return finite_or_none(f)
+    return finite_number(v)
 
 
 def truthy(v) -> bool | None:

@@ -8,6 +8,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from hydrojam._io import finite_number
+
 __all__ = ["Spread", "spread"]
 
 
@@ -36,20 +38,10 @@ class Spread:
                 "max": self.max, "max_replica": self.argmax, "values": list(self.values)}
 
 
-def _number(v) -> float | None:
-    if v is None or isinstance(v, bool):
-        return None
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        return None
-    return f if math.isfinite(f) else None
-
-
 def spread(values: Sequence) -> Spread:
     """The :class:`Spread` of ``values`` (numbers or None, one per replica; NaN, inf and
     non-numbers count as None). A single value is its own mean, with no standard deviation."""
-    vals = tuple(_number(v) for v in values)
+    vals = tuple(finite_number(v) for v in values)
     defined = [(i, v) for i, v in enumerate(vals) if v is not None]
     n = len(defined)
     if n == 0:
