@@ -25,9 +25,14 @@ def test_nothing_moves_when_the_stimulus_stays_at_the_as_prepared_state():
     model = _model("particle_layers=2", f"stimulus.mu={mu0!r}", f"stimulus.temperature={T0!r}")
     res = simulate(model)
     assert res.converged
-    assert np.abs(res.final.x - model.mesh.points).max() < 1e-9
+    # nothing drives a step; should round-off of the stress-free residual ever trigger one, it
+    # stops at the residual floor: displacements of order floor x the particle size (a stiffness
+    # of G d^(dim-2) against forces of floor x G d^(dim-1)); a factor of 100 above that
+    drift = 100 * NewtonOptions().residual_floor * model.design.particle_diameter
+    assert np.abs(res.final.x - model.mesh.points).max() < drift
     m = res.metrics
-    assert abs(m["bending_angle_deg"]) < 1e-8 and abs(m["tip_dx_mm"]) < 1e-9 and abs(m["tip_dz_mm"]) < 1e-9
+    assert abs(m["bending_angle_deg"]) < math.degrees(2 * drift / model.design.width)
+    assert abs(m["tip_dx_mm"]) < drift and abs(m["tip_dz_mm"]) < drift
     assert m["contacts_per_particle"] == 0
 
 
