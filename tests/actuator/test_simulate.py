@@ -11,6 +11,7 @@ from hydrojam.actuator.design import apply_overrides, default_design
 from hydrojam.actuator.model import build_model
 from hydrojam.actuator.simulate import simulate
 from hydrojam.fem.solver import NewtonOptions, PathOptions
+from undeformed import assert_nothing_moved
 
 
 def _model(*overrides):
@@ -23,17 +24,7 @@ def test_nothing_moves_when_the_stimulus_stays_at_the_as_prepared_state():
     d = default_design()
     mu0, T0 = d.hydrogel.mu0, d.hydrogel.T0
     model = _model("particle_layers=2", f"stimulus.mu={mu0!r}", f"stimulus.temperature={T0!r}")
-    res = simulate(model)
-    assert res.converged
-    # nothing drives a step; should round-off of the stress-free residual ever trigger one, it
-    # stops at the residual floor: displacements of order floor x the particle size (a stiffness
-    # of G d^(dim-2) against forces of floor x G d^(dim-1)); a factor of 100 above that
-    drift = 100 * NewtonOptions().residual_floor * model.design.particle_diameter
-    assert np.abs(res.final.x - model.mesh.points).max() < drift
-    m = res.metrics
-    assert abs(m["bending_angle_deg"]) < math.degrees(2 * drift / model.design.width)
-    assert abs(m["tip_dx_mm"]) < drift and abs(m["tip_dz_mm"]) < drift
-    assert m["contacts_per_particle"] == 0
+    assert_nothing_moved(model, simulate(model))
 
 
 def test_a_solver_that_cannot_converge_says_so_and_keeps_the_last_converged_state():
