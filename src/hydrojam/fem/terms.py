@@ -119,22 +119,26 @@ def _facet_type_of(d: int, nfn: int) -> str:
         raise ValueError(f"no facet type with {nfn} nodes in {d}D (expected line2/line3 in 2D, tri3/tri6 in 3D)") from None
 
 
+def nodal_areas(reference: np.ndarray, facets: np.ndarray, facet_type: str | None = None) -> np.ndarray:
+    """Consistent nodal areas (n,) of boundary ``facets`` (nf, nfn) at reference positions (n, d):
+    a_a = sum over facets of the integral of N_a dA [mm^2; mm in 2D, per unit depth]."""
+    reference = np.asarray(reference, dtype=float)
+    facets = np.asarray(facets, dtype=np.int64)
+    if facet_type is None:
+        facet_type = _facet_type_of(reference.shape[1], facets.shape[1])
+    N, dA, _ = facet_measure(ELEMENTS[facet_type], reference[facets])
+    nodal = np.einsum("qa,fq->fa", N, dA)  # integral of N_a over each facet
+    return np.bincount(facets.ravel(), weights=nodal.ravel(), minlength=len(reference))
+
+
 def surface_load(reference: np.ndarray, facets: np.ndarray, traction, facet_type: str | None = None) -> LinearTerm:
     """Dead traction ``traction`` [MPa] (length d) on reference boundary facets (nf, nfn).
 
-    Consistent nodal forces f_a = sum over facets of the integral of N_a t dA (reference area).
+    Consistent nodal forces f_a = sum over facets of the integral of N_a t dA (reference area):
+    :func:`nodal_areas` times t.
     """
-    facets = np.asarray(facets)
-    d = reference.shape[1]
-    if facet_type is None:
-        facet_type = _facet_type_of(d, facets.shape[1])
-    fe = ELEMENTS[facet_type]
-    N, dA, _ = facet_measure(fe, reference[facets])
-    t = np.asarray(traction, dtype=float)
-    nodal = np.einsum("qa,fq->fa", N, dA)  # integral of N_a over each facet
-    f = np.zeros_like(reference, dtype=float)
-    np.add.at(f, facets.ravel(), (nodal.ravel()[:, None] * t[None, :]))
-    return LinearTerm(f, reference)
+    areas = nodal_areas(reference, facets, facet_type)
+    return LinearTerm(areas[:, None] * np.asarray(traction, dtype=float)[None, :], reference)
 
 
 class TimedTerm(EnergyTerm):
@@ -445,15 +449,11 @@ class PressureTerm(EnergyTerm):
 
 def face_weights(reference: np.ndarray, facets: np.ndarray) -> np.ndarray:
     """Consistent nodal weights (n,) of boundary ``facets`` (nf, nfn) at reference positions
-    (n, d) [mm]: w_a = int N_a dA / A over the facets, summing to 1. ``sum_a w_a x_a`` is the
-    face's area-weighted mean position, the work-conjugate of a uniform traction on it."""
-    reference = np.asarray(reference, dtype=float)
-    facets = np.asarray(facets, dtype=np.int64)
-    fe = ELEMENTS[_facet_type_of(reference.shape[1], facets.shape[1])]
-    N, dA, _ = facet_measure(fe, reference[facets])
-    nodal = np.einsum("qa,fq->fa", N, dA)
-    w = np.bincount(facets.ravel(), weights=nodal.ravel(), minlength=len(reference))
-    return w / w.sum()
+    (n, d) [mm]: w_a = int N_a dA / A over the facets (:func:`nodal_areas`), summing to 1.
+    ``sum_a w_a x_a`` is the face's area-weighted mean position, the work-conjugate of a uniform
+    traction on it."""
+    areas = nodal_areas(reference, facets)
+    return areas / areas.sum()
 
 
 def resultant_load(reference: np.ndarray, facets: np.ndarray, force, name: str = "tip_force") -> LinearTerm:
