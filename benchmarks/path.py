@@ -2,15 +2,21 @@
 control, stabilisation, its release at s = 1) does to them and to the answer (issue 12, lever b).
 
 Run:  .venv/bin/python benchmarks/path.py [--variant NAME ...] [--design one_layer|default ...]
-                                          [--seeds 0 1 2] [--steps]
+                                          [--seeds 0 1 2 | --replicas N [--workers 2]]
+                                          [--set friction=0.01 ...] [--steps]
 
 For every variant and design it prints Newton iterations on the load path and in the release of
 the stabilisation (with its rounds: damping scale and iterations), wall time, whether the final
 state is an equilibrium without stabilisation ("released"), bending angle and tip. ``--seeds``
 runs round-off replicas instead of a design: the stimulus path's interior knots jittered by 1e-7 x a
 standard normal (a test harness, not a library feature), since one run's angle of the default
-design is one sample of its round-off spread (docs/actuator.md, "Path dependence"). ``--steps``
-prints the iterations of every load step.
+design is one sample of its round-off spread (docs/actuator.md, "Path dependence").
+``--replicas N`` runs the design's replicas 0 .. N-1 instead (particle centres jittered from
+seed 0, docs/replicas.md), ``--workers`` of them at once in separate processes, and prints per
+variant the mean, standard deviation and range of the angle and tip and the mean iterations: the
+test of whether a faster path samples the same distribution of equilibria as the default one.
+``--set`` overrides design fields for every run. ``--steps`` prints the iterations of every load
+step.
 
 Iteration counts are deterministic; wall times are disturbed by whatever else runs (the load is
 printed).
@@ -19,8 +25,10 @@ printed).
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
 import dataclasses
 import functools
+import statistics
 import sys
 import time
 from pathlib import Path
@@ -31,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import print_load, table  # noqa: E402
 
 import hydrojam.actuator.simulate as simulate_module  # noqa: E402
-from hydrojam.actuator.design import apply_overrides, default_design  # noqa: E402
+from hydrojam.actuator.design import apply_overrides, default_design, with_replicas  # noqa: E402
 from hydrojam.actuator.model import build_model  # noqa: E402
 
 DESIGNS = {"one_layer": ["particle_layers=1"], "default": [],
@@ -46,6 +54,7 @@ VARIANTS = {
     "release_first_0.1": ({}, {"first_scale": 0.1, "easy_round": 20}),
     "release_lower_100x": ({}, {"lower": 100.0, "easy_round": 20}),
     "stabilisation_0.001": ({"stabilisation": 1e-3}, {}),
+    "no_stabilisation": ({"stabilisation": 0.0}, {}),
     "path_easy_60": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, easy_iterations=60)}, {}),
     "path_ds_0.1_0.2": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, ds0=0.1, ds_max=0.2)}, {}),
 }
@@ -61,9 +70,13 @@ def jittered(model, seed: int, size: float = 1e-7):
     return dataclasses.replace(model, path=dataclasses.replace(path, t_knots=t))
 
 
-def run(design: str, variant: str, seed: int | None, steps: bool) -> list[str]:
+def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tuple[str, ...] = (),
+        replica: int | None = None, count: int = 1) -> list[str]:
     sim_kw, release_kw = VARIANTS[variant]
-    model = build_model(apply_overrides(default_design(), DESIGNS[design]))
+    d = apply_overrides(default_design(), [*DESIGNS[design], *overrides])
+    if replica is not None:
+        d = with_replicas(d, count).replica(replica)
+    model = build_model(d)
     if seed is not None:
         model = jittered(model, seed)
     original = simulate_module._release
@@ -85,7 +98,8 @@ def run(design: str, variant: str, seed: int | None, steps: bool) -> list[str]:
               + " ".join(str(st.iterations) for st in calls[1:])
               + "; release rounds " + " ".join(f"{r['scale']:g}:{r['iterations']}{'' if r['converged'] else '!'}"
                                                for r in rounds), flush=True)
-    return [design, variant, "-" if seed is None else str(seed), str(res.newton_iterations - release_its),
+    label = "-" if seed is None and replica is None else (f"r{replica}" if replica is not None else str(seed))
+    return [design, variant, label, str(res.newton_iterations - release_its),
             str(release_its), str(len(rounds)), f"{wall:.1f}", str(m["stabilisation_released"]),
             f"{m['bending_angle_deg']:.2f}", f"({m['tip_dx_mm']:.1f}, {m['tip_dz_mm']:.1f})"]
 
@@ -95,20 +109,48 @@ def main(argv=None) -> int:
     ap.add_argument("--variant", nargs="+", default=["main"], choices=sorted(VARIANTS))
     ap.add_argument("--design", nargs="+", default=["one_layer", "default"], choices=sorted(DESIGNS))
     ap.add_argument("--seeds", nargs="*", type=int, default=[], help="round-off replicas (knot jitter seeds)")
+    ap.add_argument("--replicas", type=int, default=0, help="run replicas 0 .. N-1 (particle jitter)")
+    ap.add_argument("--workers", type=int, default=1, help="replica runs at once (processes)")
+    ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="FIELD=VALUE",
+                    help="design override for every run (repeatable)")
     ap.add_argument("--steps", action="store_true", help="print every load step's iterations")
     args = ap.parse_args(argv)
     print_load()
+    if args.overrides:
+        print("overrides: " + " ".join(args.overrides))
+    jobs = [(design, variant, seed, args.steps, tuple(args.overrides), rep, max(args.replicas, 1))
+            for variant in args.variant for design in args.design
+            for seed in (args.seeds if not args.replicas else [None]) or [None]
+            for rep in (range(args.replicas) if args.replicas else [None])]
     rows = []
-    for variant in args.variant:
-        for design in args.design:
-            for seed in args.seeds or [None]:
-                rows.append(run(design, variant, seed, args.steps))
-                print("  " + " | ".join(rows[-1]), flush=True)
+    with concurrent.futures.ProcessPoolExecutor(max(args.workers, 1)) as pool:
+        for row in pool.map(run, *zip(*jobs)):
+            rows.append(row)
+            print("  " + " | ".join(row), flush=True)
     print_load()
     print()
     print(table(["design", "variant", "seed", "path its", "release its", "rounds", "wall [s]", "released",
                  "angle [deg]", "tip (dx, dz) [mm]"], rows, left=3))
+    if len(rows) > len({(r[0], r[1]) for r in rows}):
+        print()
+        print(table(["design", "variant", "runs", "angle mean ± std [deg]", "angle range", "dx mean ± std [mm]",
+                     "dz mean ± std [mm]", "iterations mean ± std"], _spreads(rows), left=2))
     return 0
+
+
+def _spreads(rows: list[list[str]]) -> list[list[str]]:
+    """Per (design, variant): mean ± sample standard deviation of angle, tip and iterations."""
+    def ms(v):
+        return f"{statistics.mean(v):.1f} ± {statistics.stdev(v):.1f}" if len(v) > 1 else f"{v[0]:.1f}"
+    out = []
+    for key in dict.fromkeys((r[0], r[1]) for r in rows):
+        sel = [r for r in rows if (r[0], r[1]) == key]
+        ang = [float(r[8]) for r in sel]
+        dx = [float(r[9].strip("()").split(",")[0]) for r in sel]
+        dz = [float(r[9].strip("()").split(",")[1]) for r in sel]
+        its = [int(r[3]) + int(r[4]) for r in sel]
+        out.append([*key, str(len(sel)), ms(ang), f"{min(ang):.1f}-{max(ang):.1f}", ms(dx), ms(dz), ms(its)])
+    return out
 
 
 if __name__ == "__main__":

@@ -208,7 +208,10 @@ def test_time_to_fraction_and_branch_gap():
 # ------------------------------------------------------------------------------------------------
 # timed runs of a one-layer actuator
 
-BASE = ["particle_layers=1", "mesh.size=4", "hydrogel.diffusivity=1e-2"]
+# frictionless: with friction the final state depends on the path as physics (friction
+# dissipates), and these tests check that a long hold ends at the drained equilibrium; with the
+# default friction 0.01 the timed and untimed final angles differ by about 0.5 deg (1%)
+BASE = ["particle_layers=1", "mesh.size=4", "hydrogel.diffusivity=1e-2", "friction=0"]
 
 
 def _run(*extra):

@@ -181,7 +181,9 @@ def test_points_shared_between_sweeps_have_one_key():
 
 def test_2d_cache_keys_survive_the_3d_mesh_fields():
     """A 2D design's key ignores mesh.symmetry (3D only), so caches written before it existed
-    resume: these are the keys the default and one-layer designs had then."""
-    assert design_key(hydrojam.default_design()) == "04eb2f4c262fe1b7"
-    assert design_key(Design(particle_layers=1)) == "1635fb00d9c54ea9"
+    resume: these are the keys the default and one-layer designs had then (frictionless, the
+    default then; the default friction 0.01 is another design, with another key)."""
+    assert design_key(hydrojam.default_design().model_copy(update={"friction": 0.0})) == "04eb2f4c262fe1b7"
+    assert design_key(Design(particle_layers=1, friction=0.0)) == "1635fb00d9c54ea9"
+    assert design_key(Design(particle_layers=1)) != "1635fb00d9c54ea9"
     assert design_key(Design(dimension=3)) != design_key(Design(dimension=3, mesh={"size": 2, "symmetry": False}))

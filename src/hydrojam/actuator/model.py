@@ -115,8 +115,10 @@ class ActuatorModel:
         """The load-path problem, clamped top: the terms "elastic" (the solid at the stimulus of
         s), "contact" and, on a timed path only, "volume" (:meth:`kinetic_volume_term`: each
         particle's water content within a time step), plus ``extra_terms`` (e.g.
-        "stabilisation"), in that order. Every call makes a fresh "volume" term."""
-        solid, contact = self.solid, self.contact
+        "stabilisation"), in that order. Every call makes a fresh "volume" term and a fresh
+        "contact" term (:meth:`~hydrojam.fem.contact.Contact.fresh`: no friction lag from an
+        earlier run on this model)."""
+        solid, contact = self.solid, self.contact.fresh()
         volume = self.kinetic_volume_term() if self.path.timed else None
 
         def terms(s: float):

@@ -44,11 +44,13 @@ def actuator_structure(model: ActuatorModel, s: float = 1.0, particles: Material
                        contact: Contact | None = None) -> Structure:
     """The actuator at load parameter s (materials at the stimulus of s; s = 0: the as-prepared
     state (mu0, T0)), optionally with another ``particles`` material or ``contact`` term: the
-    solid ("elastic") and "contact", clamped top, the free-end face loaded."""
+    solid ("elastic") and "contact", clamped top, the free-end face loaded. The contact term is
+    a fresh one (no friction frozen): a tangent stiffness at a state is the frictionless one
+    (full slip), and a tip curve's load steps freeze friction as a run's do."""
     materials = model.materials_at(s)
     if particles is not None:
         materials[PARTICLES] = particles
-    terms = (model.solid.with_materials(materials), model.contact if contact is None else contact)
+    terms = (model.solid.with_materials(materials), (model.contact if contact is None else contact).fresh())
     return Structure(model.mesh.points, terms, (fixed(model.clamp_nodes, 2),),
                      model.mesh.facet_groups["free_end"], model.membrane.shear_modulus_ref * model.design.particle_diameter)
 

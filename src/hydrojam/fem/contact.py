@@ -168,6 +168,15 @@ class Contact(EnergyTerm):
             eps = settings.friction_eps if settings.friction_eps is not None else 1e-2 * settings.dhat
             self._friction_potential = ipctk.FrictionPotential(eps)
 
+    def fresh(self) -> Contact:
+        """This term without the friction frozen by an earlier ``begin_step`` (none until the
+        next one), sharing the collision mesh: one per load path, so that a run on a model never
+        starts from the friction lag where another run on it ended."""
+        other = object.__new__(type(self))
+        other.__dict__.update(self.__dict__)
+        other._cache_key, other._cache, other._friction = None, None, None
+        return other
+
     # -- collision sets ------------------------------------------------------------------------
 
     def _vertices(self, x: np.ndarray) -> np.ndarray:
@@ -251,7 +260,8 @@ class Contact(EnergyTerm):
 
     def nodal_forces(self, x: np.ndarray) -> np.ndarray:
         """Contact forces on every node (n_nodes, d) [N; N/mm in 2D]: minus the barrier gradient
-        (friction included when active)."""
+        (friction included when frozen by a ``begin_step``: never on a model's own term, whose
+        load paths use :meth:`fresh` copies)."""
         return -self.gradient(x).reshape(-1, self.dim)
 
     def contact_pairs(self, x: np.ndarray) -> list[tuple[int, int]]:
