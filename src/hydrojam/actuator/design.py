@@ -312,7 +312,11 @@ class Design(BaseModel):
         None, gt=0, description="cavity depth along y, 3D only; omitted: d + 2 c [mm]"
     )
     friction: float = Field(
-        0.0, ge=0, le=2, description="Coulomb friction coefficient, particle-particle and particle-membrane [-]"
+        0.01,
+        ge=0,
+        le=2,
+        description="Coulomb friction coefficient, particle-particle and particle-membrane; default 0.01: "
+        "swollen hydrogel in water (docs/contact.md, \"Friction\") [-]",
     )
     membrane: ElastomerSpec = Field(ElastomerSpec(), description="membrane elastomer (default Ecoflex 00-30)")
     strain_limit_layer: ElastomerSpec = Field(
