@@ -130,14 +130,14 @@ PAPER_CLAIMS: tuple[Claim, ...] = (
           paper="the bending angle decreases as the temperature rises from 275 K to 295 K (particles shrink)",
           quantities=_ANGLE, tolerance=ANGLE_TOL, trends=(Trend("falls", 275.0, 295.0), Trend("no_step_up")),
           rule="θ falls from 275 to 295 K, and no step between neighbouring temperatures rises beyond the tolerance",
-          reason="likely the 2D model: cylinders in plane strain jam differently from spheres, and the frictionless "
-                 "column can rearrange into another equilibrium at one temperature (path dependence)."),
+          reason="likely the 2D model: cylinders in plane strain jam differently from spheres, and the nearly "
+                 "frictionless column can rearrange into another equilibrium at one temperature (path dependence)."),
     Claim(id="T-displacement", sweep="temperature", figure="Fig. 7",
           paper="the displacements decrease with increasing temperature",
           quantities=_TIP, magnitude=True, tolerance=DISPLACEMENT_TOL,
           trends=(Trend("falls", 275.0, 295.0), Trend("no_step_up")),
           rule="|δx| and |δz| each fall from 275 to 295 K, with no step up beyond the tolerance",
-          reason="likely the tip's path dependence with frictionless particles, which can exceed the change "
+          reason="likely the tip's path dependence with slippery particles, which can exceed the change "
                  "between neighbouring temperatures; possibly the 2D membrane without out-of-plane stretch."),
     Claim(id="T-linear", sweep="temperature", figure="Fig. 7",
           paper="the displacements ... show a linear trend (in T)",

@@ -32,13 +32,13 @@ MODEL_DIFFERENCES: tuple[str, ...] = (
     "spheres. In plane strain all of a particle's swelling goes into the plane, and the membrane (softer than "
     "the gel, with no out-of-plane hoop stretch to resist it) can balloon round the particles: a long chamber "
     "need not stay a column (see the particle-layer shapes).",
-    "Contact is frictionless (IPC barrier), the paper's is ABAQUS contact (its friction is not stated). "
-    "Frictionless particles slide past each other: a column rearranges (zig-zags) instead of pushing along "
-    "its axis.",
+    "Contact is the IPC barrier with lagged Coulomb friction (μ = 0.01 by default: swollen hydrogel in water), "
+    "the paper's is ABAQUS contact (its friction is not stated). Such slippery particles slide past each other: "
+    "a column rearranges (zig-zags) instead of pushing along its axis.",
     "Our membrane and strain-limit layer are compressible neo-Hookean Ecoflex 00-30 (G = 0.023 MPa, ν = 0.45); "
     "the paper does not give its elastomer parameters.",
-    "Our load path is quasi-static with viscous stabilisation, released at the end; a column of frictionless "
-    "particles has many equilibria and round-off selects one, so an end state is path dependent, the more so "
+    "Our load path is quasi-static with viscous stabilisation, released at the end; a column of nearly "
+    "frictionless particles has many equilibria and round-off selects one, so an end state is path dependent, the more so "
     "the longer the chamber (measured spreads: docs/reproduce.md).",
     "The paper's trends are read from its figures and words (curling judged by eye; the text puts the "
     "strain-limit layer on the left yet says the actuator bends to the right in Sec. IV-A and to the left in "
@@ -166,7 +166,8 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
           f"{f' --replicas {n_replicas}' if n_replicas > 1 else ''}`), "
           f"hydrojam {__version__}.",
           f"- Base design: the default (PL {base.particle_layers}, h = {base.strain_limit_thickness:g} mm, "
-          f"T = {base.stimulus.temperature:g} K, d = {base.particle_diameter:g} mm, frictionless), "
+          f"T = {base.stimulus.temperature:g} K, d = {base.particle_diameter:g} mm, "
+          f"{'frictionless' if base.friction == 0 else f'friction {base.friction:g}'}), "
           f"2D plane strain (particles are cylinders), mesh size {base.mesh.size:g} mm (quadratic triangles).",
           ]
     if n_replicas > 1:
