@@ -48,9 +48,9 @@ def test_the_final_state_is_an_equilibrium_without_stabilisation():
     the solver's tolerance (rtol x the elastic forces in play: the last round's own residual plus
     the viscous force left, each at most the tolerance unless that round stopped at energy
     round-off), and far below the residual of the stabilised state that the path ended in.
-    Friction (the default 0.01) is lagged: its normal forces and tangent bases are those frozen
-    at the last load step's start, kept through the release."""
-    model = _model("particle_layers=1", "mesh.size=4")
+    Frictionless: lagged friction is frozen at each release round's start, which the final state
+    does not record, so with friction the physics alone is not what the final state balances."""
+    model = _model("particle_layers=1", "mesh.size=4", "friction=0")
     ends = []
     res = simulate(model, on_step=lambda st: ends.append(st.x) if st.s == 1.0 else None)
     assert res.converged and res.metrics["stabilisation_released"], res.message
@@ -58,7 +58,6 @@ def test_the_final_state_is_an_equilibrium_without_stabilisation():
     problem = model.problem()
     free = problem.free_mask()
     terms = problem.terms(1.0)
-    terms[1].begin_step(res.states[-2].x)  # the contact's friction, as the last load step froze it
     newton = NewtonOptions()
 
     def residual(x):

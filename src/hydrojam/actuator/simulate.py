@@ -274,8 +274,9 @@ def simulate(
 def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80, first_scale: float = 1.0,
              easy_round: int | None = None, lower: float = 10.0, direct: bool = False):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
-    on the last state, again and again, the damping (``first_scale`` x the path's at first)
-    lowered ``lower``x after every converged round (with ``easy_round``: only after a round of
+    on the last state (and lagged friction frozen there, as at a load step's start), again and
+    again, the damping (``first_scale`` x the path's at first) lowered ``lower``x after every
+    converged round (with ``easy_round``: only after a round of
     at most that many Newton iterations) and raised 10x after a failed one. ``direct``: first
     minimise the physics alone (damping 0) from the stabilised state, and the rounds only if
     that fails. The viscous force left at the end of a round is exactly the residual of the
@@ -297,8 +298,9 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80, fi
             return res.x, its, True, rounds
     for _ in range(max_rounds):
         stab.scale = scale
-        stab.begin_step(x)
         ts = terms(1.0)
+        for t in ts:  # each round is a step: the damping centred and friction frozen at its start
+            t.begin_step(x)
         res = minimize(ts, x, free, problem.force_scale, options.newton, solver)
         its += res.iterations
         timings.add(res.timings)

@@ -15,6 +15,7 @@ from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
 from hydrojam.fem.newton import (NewtonOptions, NewtonResult, NewtonStatus, Timings, minimize, negative_curvature,
                                  sum_energy)
 from hydrojam.fem.problem import Problem
+from hydrojam.fem.terms import by_name
 
 
 @dataclass(frozen=True)
@@ -40,6 +41,16 @@ class PathOptions:
     unphysical_terms: tuple[str, ...] = ("stabilisation",)
     """Names of the terms that are not physics (a viscous stabilisation): left out of the
     stability check."""
+    damped_term: str = "stabilisation"
+    """Name of the term whose ``scale`` (a viscous stabilisation's) the adaptive damping sets."""
+    damping_growth: float = 10.0
+    """Adaptive damping (as ABAQUS's adaptive automatic stabilisation): a step whose Newton
+    minimisation fails (out of iterations, no descent) is retried at the same increment with the damped term's scale times this
+    (up to ``max_damping``), before the increment is cut; every easy step divides it again,
+    down to where the path started. 1: off. A snap that the weak damping lets travel far within
+    one step then travels in several damped steps."""
+    max_damping: float = 100.0
+    """Largest scale of the damped term, relative to its scale at the start of the path."""
 
 
 @dataclass(frozen=True)
@@ -59,6 +70,9 @@ class StepRecord:
     equilibrium; > 0 where the state is not a minimum of the physics (the path passes an
     instability: a saddle reached by symmetry, or a state the stabilisation holds while it
     travels through a snap). None without the check or without the inertia (SciPy)."""
+    damping: float | None = None
+    """Scale of the damped term (``PathOptions.damped_term``) in the step, relative to its scale
+    at the start of the path (1 unless the adaptive damping raised it); None without the term."""
 
 
 @dataclass(frozen=True)
@@ -138,6 +152,8 @@ def solve_path(
     Every term's ``begin_step`` runs at the start of every step. With
     ``options.stability_check`` every accepted state's physical Hessian is tested for negative
     eigenvalues (:attr:`StepRecord.negative_eigenvalues`, :attr:`PathResult.unstable_at_s`).
+    A term named ``options.damped_term`` with a ``scale`` (a viscous stabilisation) is damped
+    adaptively (:attr:`PathOptions.damping_growth`); its scale is left where the path ended.
     """
     solver = LinearSolver(options.newton.linear_solver)
     # the stability check's own solver: its matrices never touch the Newton solver's pattern
@@ -151,7 +167,8 @@ def solve_path(
     history: list[StepRecord] = []
     # equilibrate at s = 0 first (a no-op for a stress-free reference)
     s, ds, rejected = 0.0, options.ds0, 0
-    res0 = minimize(problem.terms(0.0), x.reshape(shape), free, problem.force_scale, options.newton, solver)
+    terms0 = problem.terms(0.0)
+    res0 = minimize(terms0, x.reshape(shape), free, problem.force_scale, options.newton, solver)
     tm.add(res0.timings)
     if not res0.converged:
         msg = f"could not equilibrate the initial state (s = 0): {res0.message}"
@@ -159,6 +176,10 @@ def solve_path(
     x = res0.x.ravel().copy()
     message = "converged"
     newton, last_resort = options.newton, False
+    damped = by_name(terms0).get(options.damped_term)
+    base = getattr(damped, "scale", None)
+    if not base:  # no such term, or one switched off: nothing to adapt
+        damped = None
     while s < 1.0 - options.end_tolerance:
         ds = min(ds, 1.0 - s)
         s_try = s + ds
@@ -185,14 +206,21 @@ def solve_path(
             if checker is not None:
                 physical = [t for t in terms if t.name not in options.unphysical_terms]
                 negative = negative_curvature(physical, res.x, free, checker, options.newton)
-            rec = StepRecord(s, ds, res.iterations, res.residual, res.energy, time.perf_counter() - t0, negative)
+            rec = StepRecord(s, ds, res.iterations, res.residual, res.energy, time.perf_counter() - t0, negative,
+                             None if damped is None else damped.scale / base)
             history.append(rec)
             if callback is not None:
                 callback(s, res.x, rec)
             if res.iterations <= options.easy_iterations:
                 ds = min(ds * options.grow, options.ds_max)
+                if damped is not None and damped.scale > base:
+                    damped.scale = max(damped.scale / options.damping_growth, base)
         else:
             rejected += 1
+            if (damped is not None and res.status is not NewtonStatus.INADMISSIBLE_START and options.damping_growth > 1
+                    and damped.scale * options.damping_growth <= options.max_damping * base * (1 + 1e-12)):
+                damped.scale *= options.damping_growth  # retry the same increment, more damped
+                continue
             ds *= 0.5
             if ds < options.ds_min and not last_resort and res.status is NewtonStatus.MAX_ITERATIONS:
                 # A snap (jammed particles rearranging) has no nearby equilibrium: the state must
