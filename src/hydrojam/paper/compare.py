@@ -94,9 +94,18 @@ class PointComparison:
     change: str
 
 
-def _point(r: dict) -> tuple:
-    """The design's swept values (T, PL, h), rounded against representation noise."""
-    return tuple(None if number(r.get(f)) is None else round(number(r.get(f)), 9) for f in _BASE)
+def _field(design: Design, path: str):
+    value = design
+    for name in path.split("."):
+        value = getattr(value, name)
+    return value
+
+
+def _point(r: dict, base: Design) -> tuple:
+    """The design's swept values (T, PL, h), rounded against representation noise; a field the
+    row's table has no column for (its study varied it nowhere) is the base design's."""
+    values = (number(r.get(f)) if f in r else number(_field(base, f)) for f in _BASE)
+    return tuple(None if v is None else round(v, 9) for v in values)
 
 
 def _label(sweep, point: tuple) -> str:
@@ -157,23 +166,23 @@ def compare_points(table_3d, table_2d, base: Design) -> list[PointComparison]:
     """The designs of either table (each once: the base point is shared by the three sweeps), in
     the sweeps' order and by parameter, with their 2D and 3D rows and the change in words.
     ``base``: the study's base design (its gel and chemical potential set the swelling stretches)."""
-    rows2 = {}
-    for sw in PAPER_SWEEPS:
-        for r in rows_of(table_2d, sw.name):
-            rows2.setdefault(_point(r), r)
+    rows = []
+    for table in (table_2d, table_3d):
+        by_point = {}
+        for sw in PAPER_SWEEPS:
+            for r in rows_of(table, sw.name):
+                by_point.setdefault(_point(r, base), r)
+        rows.append(by_point)
+    rows2, rows3 = rows
     seen, out, stretch_at = set(), [], {}
     for sw in PAPER_SWEEPS:
-        own = {}
-        for r in rows_of(table_3d, sw.name):
-            own.setdefault(_point(r), r)
-        for r in rows_of(table_2d, sw.name):
-            own.setdefault(_point(r), None)
-        for point in sorted(own, key=lambda p: (p[list(_BASE).index(sw.field)] is None,
-                                                 p[list(_BASE).index(sw.field)] or 0.0)):
+        at = list(_BASE).index(sw.field)
+        own = {_point(r, base) for table in (table_3d, table_2d) for r in rows_of(table, sw.name)}
+        for point in sorted(own, key=lambda p: (p[at] is None, p[at] or 0.0, [(v is None, v or 0.0) for v in p])):
             if point in seen:
                 continue
             seen.add(point)
-            r3, r2 = own[point], rows2.get(point)
+            r3, r2 = rows3.get(point), rows2.get(point)
             T = point[0]
             if T is not None and T not in stretch_at:
                 try:
