@@ -213,7 +213,7 @@ def comparison_lines(table_3d, table_2d, base: Design, *, quick: bool, out: str 
     L += [f"The same designs in 2D plane strain (particles are cylinders; the 2D study in `{source}`) and in 3D "
           "(spheres, the half model). δx < 0: toward the strain-limit layer, δz < 0: downward. "
           "The swelling's free stretches are computed from the gel at each point's temperature: a cylinder in "
-          "plane strain puts all its swelling into the plane (stretch √J against a sphere's J^(1/3)); round a "
+          "plane strain (its axis held) puts its volume change into two directions, a sphere into three; round a "
           "sphere the membrane is stretched in hoop as well, which a plane-strain membrane is not; and spheres "
           "in a chamber as deep as one particle stay in a column where cylinders can pack into a cluster. "
           "The \"why\" is a hypothesis from these differences, not a finding.", "",

@@ -52,7 +52,7 @@ MODEL_DIFFERENCES_3D: tuple[str, ...] = (
     "hydrojam's 3D model has spheres, like the paper's (ABAQUS, 3D), in a chamber of rectangular cross-section "
     "as deep as one particle plus the clearance. By default it models the half y ≥ 0 with y = 0 a symmetry "
     "plane (u_y = 0 there), so every state is symmetric about that plane: a column buckling out of it is not "
-    "modelled (the full model: `--set mesh.symmetry=false`, about 6x the cost).",
+    "modelled (the full model: `--set mesh.symmetry=false`, 6-9x the CPU time).",
     *MODEL_DIFFERENCES[1:],
 )
 
