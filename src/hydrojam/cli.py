@@ -512,30 +512,44 @@ def _check_workers(workers: Optional[int], scheduler: Optional[str], out: Path) 
 @app.command()
 def reproduce(
     out: Path = typer.Option(..., "-o", "--out", help="Output folder: report.md, figures/, results.csv/.parquet, points/; rerun to resume."),
-    quick: bool = typer.Option(False, "--quick", help="Coarser mesh and fewer points (12 rows, 10 designs): minutes, not hours."),
+    quick: bool = typer.Option(False, "--quick", help="Coarser mesh (4 mm) and fewer points (12 rows, 10 designs): minutes in 2D, hours in 3D."),
+    dimension: int = typer.Option(2, "--dimension", help="2 (plane strain, cylinders) or 3 (spheres, the half model): a study of its own, in its own output folder."),
+    compare_2d: Optional[Path] = typer.Option(None, "--compare-2d", help="With --dimension 3: the output folder of the 2D study of the same kind (quick or full); the report adds a 2D-against-3D table."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes, one thread each (default: one per CPU)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of a running dask scheduler, e.g. tcp://10.0.0.5:8786."),
     sweep: list[str] = typer.Option([], "--sweep", help="Run only this sweep (repeatable): temperature, particle_layers, strain_limit_thickness; a later run into the same folder adds the others."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
     replicas: int = typer.Option(1, "--replicas", help="Replicas per point: the table and figures give their mean and spread, and a statement agrees or disagrees only beyond the spread."),
 ) -> None:
-    """Reproduce the paper's Section IV (2D): the temperature, particle-layer and strain-limit
-    thickness sweeps, their figures and OUT/report.md (the paper's statements, agree/disagree).
+    """Reproduce the paper's Section IV (2D, or 3D with --dimension 3): the temperature,
+    particle-layer and strain-limit thickness sweeps, their figures and OUT/report.md (the
+    paper's statements, agree/disagree; in 3D also 2D against 3D with --compare-2d).
 
     Cached and resumable like `hydrojam sweep`. Exit status 0 when every point converged, 1 when
     any failed or stopped early (the report is still written), 2 on bad input.
     """
+    from hydrojam.paper.compare import CompareError, read_2d_results
     from hydrojam.paper.reproduce import reproduce as run_reproduce
-    from hydrojam.paper.study import paper_study
+    from hydrojam.paper.study import DIMENSIONS, paper_study
 
+    if dimension not in DIMENSIONS:
+        raise InputError(f"--dimension: allowed {' or '.join(map(str, DIMENSIONS))} (got {dimension})")
+    if compare_2d is not None and dimension != 3:
+        raise InputError("--compare-2d: only with --dimension 3 (it compares the 3D study with a 2D one)")
     _check_replicas(replicas)
     try:
-        paper_study(quick, sweep or None)
+        paper_study(quick, sweep or None, dimension=dimension)
     except ValueError as err:
         raise InputError(f"--sweep: {err}") from None
     _check_workers(workers, scheduler, out)
+    if compare_2d is not None:
+        try:
+            read_2d_results(compare_2d, quick)
+        except CompareError as err:
+            raise InputError(f"--compare-2d: {err}") from None
     _run_with_progress(lambda on_point: run_reproduce(out, quick=quick, workers=workers, scheduler=scheduler,
-                                                      sweeps=sweep or None, on_point=on_point, replicas=replicas),
+                                                      sweeps=sweep or None, on_point=on_point, replicas=replicas,
+                                                      dimension=dimension, compare_2d=compare_2d),
                        out, quiet, report=True)
 
 

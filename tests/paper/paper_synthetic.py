@@ -150,3 +150,55 @@ def with_spread(rows, std: dict[str, float], replicas: int = 4) -> list[dict]:
             r[f"{key}_min"], r[f"{key}_max"] = (None, None) if v is None else (v - 2 * sd, v + 2 * sd)
         out.append(r)
     return out
+
+
+_TET10_EDGES = ((0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3))  # meshio/VTK order of the mid-edge nodes
+
+
+def tet10_boxes(boxes: list[tuple[float, float, float, float, float, float]]):
+    """Quadratic tetrahedra filling boxes (x0, x1, y0, y1, z0, z1) [mm], each box a body (its index):
+    every box is cut at y = 0 into two halves (when it spans it) and each half into the 6 tetrahedra
+    of its main diagonal (Kuhn). Returns points (n, 3), tetra10 cells (k, 10) and body ids (k,)."""
+    from itertools import permutations
+
+    pts, cells, body = [], [], []
+
+    def node(p):
+        pts.append(np.asarray(p, dtype=float))
+        return len(pts) - 1
+
+    for b, (x0, x1, y0, y1, z0, z1) in enumerate(boxes):
+        for ya, yb in ([(y0, 0.0), (0.0, y1)] if y0 < 0.0 < y1 else [(y0, y1)]):
+            lo, hi = np.array([x0, ya, z0]), np.array([x1, yb, z1])
+            for perm in permutations(range(3)):
+                corner = [lo.copy()]
+                for axis in perm:
+                    nxt = corner[-1].copy()
+                    nxt[axis] = hi[axis]
+                    corner.append(nxt)
+                ids = [node(c) for c in corner]
+                ids += [node(0.5 * (corner[i] + corner[j])) for i, j in _TET10_EDGES]
+                cells.append(ids)
+                body.append(b)
+    return np.array(pts), np.array(cells), np.array(body, dtype=np.int32)
+
+
+#: a 3D actuator's boxes (x0, x1, y0, y1, z0, z1) [mm]: membrane, strain-limit layer, a particle
+BOXES_3D = [(-10.0, 10.0, -10.0, 10.0, -40.0, 0.0), (-18.0, -10.0, -10.0, 10.0, -40.0, 0.0),
+            (-6.0, 6.0, -6.0, 6.0, -20.0, -8.0)]
+
+
+def write_point_3d(out: Path, r: dict, bend: float, design=None) -> None:
+    """A 3D point folder: design.toml (dimension 3) and a final.vtu of tetra10 boxes (membrane,
+    layer, particle) in results.write_vtu's layout (reference points + displacement), bent by ``bend``."""
+    pdir = out / r["point_dir"]
+    pdir.mkdir(parents=True)
+    if design is None:
+        design = apply_overrides(default_design(), ["dimension=3", "mesh.size=4.0"]
+                                 + [f"{f}={r[f]!r}" for f in FIELDS])
+    write_design(pdir / "design.toml", design)
+    pts, cells, body = tet10_boxes(BOXES_3D)
+    disp = np.zeros_like(pts)
+    disp[:, 0] = bend * pts[:, 2] ** 2 / 40.0
+    meshio.write(pdir / "final.vtu", meshio.Mesh(pts, [("tetra10", cells)], point_data={"displacement": disp},
+                                                 cell_data={"body_id": [body]}))

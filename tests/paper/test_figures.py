@@ -44,3 +44,27 @@ def test_read_shape_moves_reference_points_by_displacement(tmp_path):
     pts, _, _, outline = pfigures._read_shape(tmp_path)
     np.testing.assert_allclose(pts, p + disp)
     assert outline is None
+
+
+def test_a_3d_point_is_drawn_as_its_section_y0(tmp_path):
+    """A 3D final.vtu (tetra10, mirrored about y = 0) is drawn as its section y = 0: the faces on that
+    plane of the cells above it, which tile each body's x-z rectangle (areas summed independently),
+    moved by the displacement; the shapes figure of 3D rows is written."""
+    from paper_synthetic import BOXES_3D, row, write_point_3d
+
+    r = row("temperature", "stimulus.temperature", 275.0, 30.0, -5.0, -2.0, point_dir="points/a")
+    write_point_3d(tmp_path, r, bend=-0.3)
+    mesh = meshio.read(tmp_path / "points/a/final.vtu")
+    X = np.asarray(mesh.points)
+    pts, tris, body, outline, section = pfigures._read_drawing(tmp_path / "points/a")
+    assert section
+    np.testing.assert_allclose(X[tris.ravel(), 1], 0.0, atol=1e-12)  # every corner on y = 0
+    ref = X[:, [0, 2]]
+    e1, e2 = ref[tris[:, 1]] - ref[tris[:, 0]], ref[tris[:, 2]] - ref[tris[:, 0]]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    for b, (x0, x1, _, _, z0, z1) in enumerate(BOXES_3D):
+        assert np.isclose(area[body == b].sum(), (x1 - x0) * (z1 - z0), rtol=1e-12)
+    np.testing.assert_allclose(pts, ref + np.asarray(mesh.point_data["displacement"])[:, [0, 2]])
+    np.testing.assert_allclose(outline.min(axis=0), [-18.0, -40.0])
+    pfigures.plot_shapes(tmp_path, [r], "stimulus.temperature", tmp_path / "shapes.png")
+    assert (tmp_path / "shapes.png").read_bytes()[:8] == PNG_MAGIC

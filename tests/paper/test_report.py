@@ -71,3 +71,47 @@ def test_report_and_trends_with_replicas(study_dir, tmp_path):
     n_spread = sum(r.verdict == pclaims.SPREAD_VERDICT for r in results)
     assert n_spread >= 1 and f"{n_spread} {pclaims.SPREAD_VERDICT}." in text
     assert f"**{pclaims.SPREAD_VERDICT}**" in text and "u = √(s_a² + s_b²)" in text
+
+
+def _section(text: str, head: str) -> str:
+    """The text of the Markdown section that starts with ``head`` (up to the next "## ")."""
+    start = text.index(head)
+    end = text.find("\n## ", start + len(head))
+    return text[start:] if end < 0 else text[start:end]
+
+
+def test_report_in_3d(study_dir, tmp_path):
+    """A 3D study's report: its title, command and model say 3D (spheres, half model, tetrahedra),
+    never 2D plane strain or cylinders outside the 2D-against-3D section; the reasons for a
+    disagreement are the 3D ones; the 2D-against-3D section has the table with 2D results and
+    says how to get them without."""
+    from paper_synthetic import Table
+
+    _, table = study_dir
+    out = tmp_path / "out"
+    out.mkdir()
+    base = pstudy.paper_base(True, dimension=3)
+    text = preport.write_report(out, table, True, 60.0, base=base).read_text(encoding="utf-8")
+    assert text.startswith("# hydrojam reproduction of Chen, Schott & Jovanova, Section IV (Figs. 6-11), in 3D")
+    run = _section(text, "## What was run")
+    assert "**quick, 3D** (`hydrojam reproduce --dimension 3 --quick`)" in run
+    assert "3D (particles are spheres; the half model" in run and "quadratic tetrahedra" in run
+    assert "`hydrojam reproduce --dimension 3 --quick -o " in text
+    claims = _section(text, "## The paper's statements")
+    differences = _section(text, "## Model differences")
+    for part in (run, claims, differences):
+        assert "plane strain" not in part and "cylinder" not in part and "2D" not in part
+    assert differences.count("\n- ") == len(preport.MODEL_DIFFERENCES_3D)
+    assert preport.model_differences(2) == preport.MODEL_DIFFERENCES and preport.model_differences(3)[0].startswith(
+        "hydrojam's 3D model has spheres")
+    assert pclaims.DISAGREEMENT_REASONS_3D["h-angle"] in claims  # h-angle disagrees in study_dir
+    assert "*No 2D results given.*" in _section(text, "## 2D against 3D")
+    two = Table([dict(r, bending_angle_deg=(r["bending_angle_deg"] or 0) + 10.0) for r in table.rows])
+    text = preport.write_report(out, table, True, 60.0, base=base, compare_2d=two,
+                                compare_source="out2d").read_text(encoding="utf-8")
+    compare = _section(text, "## 2D against 3D")
+    assert "| point | θ 2D [deg] | θ 3D [deg] |" in compare and "`out2d`" in compare
+    assert compare.count("\n| ") == 1 + 10  # the header and the 10 distinct designs of the quick study
+    # a 2D report has no such section
+    text2 = preport.write_report(out, table, True, 60.0).read_text(encoding="utf-8")
+    assert "## 2D against 3D" not in text2 and "plane strain" in _section(text2, "## What was run")

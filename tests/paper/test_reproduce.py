@@ -92,3 +92,106 @@ def test_reproduce_refuses_an_unknown_sweep(tmp_path, capsys):
     assert main(["reproduce", "--quick", "--sweep", "temprature", "-o", str(out)]) == 2
     err = capsys.readouterr().err
     assert "--sweep" in err and "temperature, particle_layers, strain_limit_thickness" in err and not out.exists()
+
+
+def _one_error_line(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("hydrojam: error: ") and "\n" not in err and "Traceback" not in err
+    return err
+
+
+@pytest.mark.parametrize("args, says", [
+    (["--dimension", "1"], "--dimension: allowed 2 or 3 (got 1)"),
+    (["--dimension", "4", "--quick"], "--dimension: allowed 2 or 3 (got 4)"),
+    (["--compare-2d", "elsewhere"], "--compare-2d: only with --dimension 3"),
+    (["--dimension", "3", "--quick", "--compare-2d", "elsewhere"], "--compare-2d: elsewhere: no such folder"),
+])
+def test_reproduce_refuses_bad_dimension_and_comparison_before_any_work(tmp_path, capsys, monkeypatch, args, says):
+    from hydrojam.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "out"
+    assert main(["reproduce", "-o", str(out), *args]) == 2
+    assert says in _one_error_line(capsys) and not out.exists()
+
+
+@pytest.mark.parametrize("held, run", [((True, 2), ["--dimension", "3", "--quick"]),
+                                       ((True, 3), ["--quick"]),
+                                       ((False, 3), ["--dimension", "3", "--quick"])])
+def test_reproduce_refuses_an_out_holding_the_other_study(tmp_path, capsys, held, run):
+    """A 2D and a 3D study (or a quick and a full one) never share a folder: exit 2, one line
+    naming both studies, nothing written into it."""
+    from hydrojam.cli import main
+    from hydrojam.study.spec import write_study
+
+    write_study(tmp_path / "study.toml", pstudy.paper_study(held[0], dimension=held[1]))
+    before = (tmp_path / "study.toml").read_bytes()
+    assert main(["reproduce", "-o", str(tmp_path), *run]) == 2
+    err = _one_error_line(capsys)
+    want = pstudy.study_name("--quick" in run, 3 if "3" in run else 2)
+    assert f"another study, {pstudy.study_name(*held)!r}" in err and f"not {want!r}" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]
+    assert (tmp_path / "study.toml").read_bytes() == before
+
+
+def _cache_3d_points(out, study):
+    import json
+
+    from paper_synthetic import write_point_3d
+
+    for p in study.points():
+        if (out / "points" / p.key / "point.json").exists():
+            continue
+        metrics = paper_like(p.design)
+        metrics["bending_angle_deg"] -= 10.0
+        metrics.update(converged=True, stabilisation_released=True, newton_iterations=900)
+        write_point_3d(out, {"point_dir": f"points/{p.key}"}, bend=-0.3, design=p.design)
+        record = {"key": p.key, "status": "ok", "error": None, "metrics": metrics, "wall_time_s": 600.0}
+        (out / "points" / p.key / "point.json").write_text(json.dumps(record))
+
+
+def test_reproduce_3d_from_cached_points_with_the_2d_comparison(tmp_path):
+    """`reproduce --dimension 3 --quick --compare-2d OUT2D` over cached points of both studies:
+    nothing is simulated; the 3D report has the verdicts, six shapes and trends figures and the
+    2D-against-3D table of the 10 designs."""
+    from hydrojam.cli import main
+
+    two, three = tmp_path / "two", tmp_path / "three"
+    _cache_points(two, pstudy.paper_study(quick=True))
+    assert main(["reproduce", "--quick", "-o", str(two), "--quiet", "--sweep", "temperature"]) == 0
+    _cache_3d_points(three, pstudy.paper_study(quick=True, dimension=3))
+    assert main(["reproduce", "--dimension", "3", "--quick", "-o", str(three), "--quiet",
+                 "--compare-2d", str(two)]) == 0
+    assert "paper-3d-quick" in (three / "study.toml").read_text()
+    assert len(list((three / "figures").glob("*.png"))) == 6
+    text = (three / "report.md").read_text(encoding="utf-8")
+    assert "**quick, 3D**" in text and "## 2D against 3D" in text
+    rows = [line for line in text.split("## 2D against 3D")[1].split("## Model")[0].splitlines()
+            if line.startswith("| ") and not line.startswith("| point")]
+    assert len(rows) == 10
+    assert sum("bends less in 3D (θ -10.0°" in line for line in rows) == 3  # the 2D temperature sweep only
+    assert sum("not run in 2D" in line for line in rows) == 7
+
+
+@pytest.mark.slow
+def test_reproduce_3d_runs_a_tiny_study_end_to_end(tmp_path, monkeypatch):
+    """One mild 3D point simulated (PL 1, mesh 4 mm, 300 K, μ -0.025: seconds): the point folder,
+    a 3D final.vtu drawn as its section, the report in 3D."""
+    from hydrojam.actuator.design import apply_overrides
+    from hydrojam.paper import reproduce as preproduce
+    from hydrojam.study.spec import Study, SweepSpec
+
+    def tiny(quick=False, sweeps=None, replicas=1, dimension=2):
+        base = apply_overrides(pstudy.paper_base(quick, replicas, dimension),
+                               ["particle_layers=1", "stimulus.temperature=300.0", "stimulus.mu=-0.025"])
+        return Study(name=pstudy.study_name(quick, dimension), base=base,
+                     sweeps=[SweepSpec(name="temperature", vary={"stimulus.temperature": [300.0]})])
+
+    monkeypatch.setattr(preproduce, "paper_study", tiny)
+    table, report = preproduce.reproduce(tmp_path, quick=True, dimension=3, workers=1)
+    (r,) = table.rows
+    assert r["status"] == "ok" and 0.0 < r["bending_angle_deg"] < 2.0
+    assert (tmp_path / r["point_dir"] / "final.vtu").is_file()
+    assert (tmp_path / "figures" / "temperature_shapes.png").read_bytes()[:4] == b"\x89PNG"
+    text = report.read_text(encoding="utf-8")
+    assert "in 3D" in text and "*No 2D results given.*" in text

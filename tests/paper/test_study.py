@@ -48,3 +48,55 @@ def test_paper_study(quick, distinct):
     base_key = study_mod.design_key(study.base)
     assert {p.sweep for p in points if p.key == base_key} == {s.name for s in pstudy.PAPER_SWEEPS}
     assert all(p.design.mesh.size == (pstudy.QUICK_MESH_SIZE if quick else 2.0) for p in points)
+
+
+def _old_way(quick):
+    """The Section IV study built as paper_study built it before it took a dimension."""
+    from hydrojam.study.spec import Study, SweepSpec
+
+    base = default_design()
+    if quick:
+        base = apply_overrides(base, ["mesh.size=4.0"])
+    vary = {"temperature": {"stimulus.temperature": [275.0, 285.0, 295.0] if quick else [275.0, 280.0, 285.0, 290.0, 295.0]},
+            "particle_layers": {"particle_layers": [5, 7, 9, 11, 15, 19] if quick else list(range(5, 20))},
+            "strain_limit_thickness": {"strain_limit_thickness": [4.0, 8.0, 12.0] if quick else [4.0, 6.0, 8.0, 10.0, 12.0]}}
+    return Study(name="paper-quick" if quick else "paper", base=base,
+                 sweeps=[SweepSpec(name=n, vary=v) for n, v in vary.items()])
+
+
+@pytest.mark.parametrize("quick", [False, True])
+def test_the_2d_study_is_unchanged_by_the_dimension(quick):
+    """2D (the default and dimension=2) keeps its name, base and cache keys: the study equals one
+    built the old way, point by point, so a finished 2D folder is resumed, not rerun."""
+    old = _old_way(quick)
+    for study in (pstudy.paper_study(quick), pstudy.paper_study(quick, dimension=2)):
+        assert study.name == old.name and study.base == old.base
+        assert [(p.sweep, p.index, p.key) for p in study.points()] == [(p.sweep, p.index, p.key) for p in old.points()]
+    assert pstudy.paper_base(quick, dimension=2) == pstudy.paper_base(quick)
+
+
+@pytest.mark.parametrize("quick, name, mesh, distinct", [(True, "paper-3d-quick", 4.0, 10), (False, "paper-3d", 2.0, 23)])
+def test_the_3d_study(quick, name, mesh, distinct):
+    """The 3D study: its own name, the 2D study's points on the same meshes (quick 4 mm, full
+    2 mm), spheres in the half model, and cache keys that no 2D point shares."""
+    study = pstudy.paper_study(quick, dimension=3)
+    assert study.name == name == pstudy.study_name(quick, 3)
+    assert pstudy.study_kind(name) == (quick, 3) and pstudy.study_kind(pstudy.study_name(quick)) == (quick, 2)
+    assert pstudy.study_kind("my-study") is None
+    assert {s.name: s.vary for s in study.sweeps} == pstudy.paper_points(quick)
+    assert study.base == apply_overrides(pstudy.paper_base(quick), ["dimension=3"])
+    assert study.base.dimension == 3 and study.base.mesh.symmetry and study.base.mesh.size == mesh
+    points = study.points()
+    assert len({p.key for p in points}) == distinct
+    assert all(p.design.dimension == 3 and p.design.mesh.size == mesh for p in points)
+    assert not {p.key for p in points} & {p.key for p in pstudy.paper_study(quick).points()}
+    two = {(p.sweep, p.index): p.design for p in pstudy.paper_study(quick).points()}
+    for p in points:  # the same designs but for the dimension
+        assert p.design == apply_overrides(two[(p.sweep, p.index)], ["dimension=3"])
+    assert pstudy.paper_study(quick, ["temperature"], 2, dimension=3).base.replicas.count == 2
+
+
+@pytest.mark.parametrize("dimension", [1, 4, True, "3"])
+def test_other_dimensions_are_refused(dimension):
+    with pytest.raises(ValueError, match=r"dimension: allowed 2 or 3"):
+        pstudy.paper_study(True, dimension=dimension)

@@ -53,3 +53,15 @@ def fmt_param(value: float | None, unit: str = "") -> str:
         return "?"
     text = f"{value:g}"
     return f"{text} {unit}" if unit and unit != "layers" else text
+
+
+def cell(v, fmt: str = "{:.1f}") -> str:
+    """A table cell: the number formatted, or "—" where there is none."""
+    f = number(v)
+    return "—" if f is None else fmt.format(f)
+
+
+def cell_pm(r: dict, key: str, fmt: str = "{:.1f}") -> str:
+    """A cell with the replicas' spread: "74.2 ± 3.1" (or the plain value of a single run)."""
+    sd = number(r.get(f"{key}_std"))
+    return cell(r.get(key), fmt) + ("" if sd is None else " ± " + fmt.format(sd))

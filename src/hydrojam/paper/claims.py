@@ -48,6 +48,7 @@ __all__ = [
     "Claim",
     "ClaimResult",
     "DISAGREEMENT_REASONS",
+    "DISAGREEMENT_REASONS_3D",
     "DISPLACEMENT_TOL",
     "LINEAR_R2",
     "SPREAD_VERDICT",
@@ -199,6 +200,28 @@ PAPER_CLAIMS: tuple[Claim, ...] = (
 
 #: claim id -> the default "why" of a disagreement (hypotheses, not findings)
 DISAGREEMENT_REASONS: dict[str, str] = {c.id: c.reason for c in PAPER_CLAIMS}
+
+#: the same for the 3D study (spheres): hypotheses without the 2D model's cylinders and plane strain
+DISAGREEMENT_REASONS_3D: dict[str, str] = {
+    **DISAGREEMENT_REASONS,
+    "T-angle": "likely path dependence: a column of nearly frictionless spheres can pass an instability at one "
+               "temperature and settle in another equilibrium (docs/actuator.md, the default design in 3D).",
+    "T-displacement": "likely the tip's path dependence with slippery particles, which can exceed the change "
+                      "between neighbouring temperatures.",
+    "T-dx-dominant": "likely the membrane's share of the swelling: the spheres bulge it in y as well as in x, and "
+                     "how much goes into the chamber's length (δz) is set by its hoop stretch and the elastomer "
+                     "parameters.",
+    "PL-angle": "likely the soft membrane (G = 0.023 MPa, about 10x softer than the gel): a long chamber's spheres "
+                "can bulge it into a wider cluster instead of pushing along the axis, and the end states of long "
+                "chambers are path dependent.",
+    "PL-curling": "likely the curling index's definition (share of rotation in the clamp half) versus the paper's "
+                  "curling judged by eye.",
+    "PL-dx": "likely the path dependence of long chambers and a membrane bulging round the spheres (the tip can "
+             "rise and move little sideways).",
+    "PL-dz": "likely a chamber that bulges and shortens instead of bending: its tip moves up, not down.",
+    "h-angle": "likely the elastomer parameters (a neo-Hookean Ecoflex of G = 0.023 MPa for the layer), which "
+               "set how much a thicker layer resists the particles' push.",
+}
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,8 @@
 """The figures of the paper's Section IV study, drawn on :class:`matplotlib.figure.Figure`
 without pyplot (a notebook's backend is left alone): per sweep the deformed shapes (like the
 paper's Figs. 6, 8, 10) and the trends (Figs. 7, 9, 11), PNG at DPI dots per inch. Lengths mm.
+A 3D point's shape is its section y = 0, the one ``final.png`` draws
+(:func:`hydrojam.actuator.plots.plot_actuator`).
 """
 
 from __future__ import annotations
@@ -10,13 +12,14 @@ import os
 import textwrap
 from collections.abc import Sequence
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from hydrojam._io import atomic_path
 from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY
-from hydrojam.actuator.plots import _TRI6_SPLIT
+from hydrojam.actuator.plots import _TRI6_SPLIT, _mid_section
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
 
@@ -35,25 +38,43 @@ def _sweep_for(param: str, label: str | None = None, unit: str | None = None) ->
 
 
 def _read_shape(point_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """:func:`_read_drawing` without the flag."""
+    return _read_drawing(point_dir)[:4]
+
+
+def _read_drawing(point_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, bool]:
     """Deformed positions (n, 2), triangles (k, 3), their body ids and the undeformed outer outline
     (a closed rectangle (5, 2), or None) from ``final.vtu``, all in (x, z) [mm].
 
     :func:`hydrojam.actuator.results.write_vtu` writes the reference points and a ``displacement`` field:
     the deformed points are their sum and the outline is the reference points' bounding box
     (the actuator is a rectangle, DESIGN.md section 6). Without a displacement field the points
-    are taken as deformed and no outline is drawn."""
+    are taken as deformed and no outline is drawn. A 3D actuator (quadratic tetrahedra, the half
+    model mirrored) is drawn as its section y = 0 (:func:`_section_y0`); the last item says so."""
     import meshio
 
     mesh = meshio.read(point_dir / "final.vtu")
-    pts = np.asarray(mesh.points, dtype=float)[:, [0, 2]]
+    body_data = mesh.cell_data.get("body_id")
+    tets = [i for i, block in enumerate(mesh.cells) if block.type == "tetra10"]
+    pts3 = np.asarray(mesh.points, dtype=float)
     disp = mesh.point_data.get("displacement")
+    if tets:
+        if body_data is None:
+            raise ValueError("no body_id in final.vtu")
+        cells = np.concatenate([np.asarray(mesh.cells[i].data) for i in tets])
+        body = np.concatenate([np.asarray(body_data[i]).reshape(-1) for i in tets])
+        tris, bodies = _section_y0(pts3, cells, body)
+        if not len(tris):
+            raise ValueError("no cell faces on the plane y = 0 in final.vtu")
+    pts = pts3[:, [0, 2]]
     outline = None
     if disp is not None:
         (x0, z0), (x1, z1) = pts.min(axis=0), pts.max(axis=0)
         outline = np.array([[x0, z1], [x1, z1], [x1, z0], [x0, z0], [x0, z1]])
         pts = pts + np.asarray(disp, dtype=float)[:, [0, 2]]
+    if tets:
+        return pts, tris, bodies, outline, True
     tris, bodies = [], []
-    body_data = mesh.cell_data.get("body_id")
     for i, block in enumerate(mesh.cells):
         if block.type not in ("triangle6", "triangle"):
             continue
@@ -68,7 +89,18 @@ def _read_shape(point_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
             bodies.append(body)
     if not tris:
         raise ValueError("no triangles in final.vtu")
-    return pts, np.concatenate(tris), np.concatenate(bodies), outline
+    return pts, np.concatenate(tris), np.concatenate(bodies), outline, False
+
+
+def _section_y0(points: np.ndarray, cells: np.ndarray, body: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The section y = 0 of a 3D actuator's quadratic tetrahedra in reference ``points`` (n, 3)
+    [mm]: straight triangles (k, 3) of node indices and their body ids, as ``final.png`` draws it
+    (:func:`hydrojam.actuator.plots._mid_section`, given the file's mesh in place of a model)."""
+    ref = SimpleNamespace(mesh=SimpleNamespace(points=points, cells=cells, cell_type="tetra10"),
+                          design=SimpleNamespace(length=float(np.ptp(points[:, 2])) or 1.0))
+    fields = {"body_id": body, "swelling_ratio": np.zeros(len(body))}
+    tris, bodies, _, _ = _mid_section(ref, fields)
+    return tris, bodies
 
 
 def _body_outlines(tris: np.ndarray, body: np.ndarray) -> np.ndarray:
@@ -95,7 +127,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     at the same scale (shared limits, equal aspect): membrane light grey, strain-limit layer dark
     grey, particles blue, read from ``OUT/<point_dir>/final.vtu``; the undeformed outer outline
     dashed (from the point's design.toml); the title gives the parameter and the bending angle.
-    A failed point (or one without final.vtu) gets an empty panel saying why. Lengths in mm.
+    A failed point (or one without final.vtu) gets an empty panel saying why. A 3D point is
+    drawn as its section y = 0 (the symmetry plane: half of every particle, the walls and the
+    strain-limit layer cut through the middle), seen along -y, as in its ``final.png``. Lengths in mm.
     """
     from matplotlib.collections import LineCollection, PolyCollection
     from matplotlib.lines import Line2D
@@ -107,16 +141,17 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     panels = []
     for row in rows:
         pdir = out / str(row.get("point_dir") or "")
-        panel = {"row": row, "shape": None, "outline": None, "failed": None}
+        panel = {"row": row, "shape": None, "outline": None, "failed": None, "section": False}
         if point_status(row) == "failed" or not row.get("point_dir"):
             panel["failed"] = _failure_text(row)
         else:
             try:
-                pts, tris, body, panel["outline"] = _read_shape(pdir)
+                pts, tris, body, panel["outline"], panel["section"] = _read_drawing(pdir)
                 panel["shape"] = (pts, tris, body)
             except Exception as err:  # noqa: BLE001 - a figure must survive one bad file
                 panel["failed"] = _failure_text(row, f"cannot read final.vtu ({type(err).__name__}: {err})")
         panels.append(panel)
+    section = any(p["section"] for p in panels)
     n = max(len(panels), 1)
     ncols = min(n, SHAPES_MAX_COLUMNS)
     nrows = math.ceil(n / ncols)
@@ -170,8 +205,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
                Patch(color=_COLOURS["particle"], label="hydrogel particles"),
                Line2D([], [], ls="--", color="0.5", label="undeformed outline")]
     fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
+    where = "3D, section y = 0; " if section else ""
     fig.suptitle(f"Deformed actuators, final states ({_sweep_for(param, label, unit)[1]}); "
-                 "strain-limit layer on the -x side", fontsize=10)
+                 f"{where}strain-limit layer on the -x side", fontsize=10)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=DPI, format="png")
 

@@ -12,19 +12,21 @@ from pathlib import Path
 from hydrojam import __version__
 from hydrojam._io import write_text_atomic
 from hydrojam.actuator.design import Design
-from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, truthy
+from hydrojam.paper._rows import cell, cell_pm, fmt_param, number, point_status, rows_of, sorted_by, truthy
 from hydrojam.paper.claims import (
     ANGLE_TOL,
     CURLING_MARGIN,
     DISPLACEMENT_TOL,
+    DISAGREEMENT_REASONS_3D,
     PAPER_CLAIMS,
     SPREAD_VERDICT,
     check_claims,
 )
+from hydrojam.paper.compare import comparison_lines
 from hydrojam.paper.figures import figure_names
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, paper_base
 
-__all__ = ["MODEL_DIFFERENCES", "write_report"]
+__all__ = ["MODEL_DIFFERENCES", "MODEL_DIFFERENCES_3D", "model_differences", "write_report"]
 
 #: how hydrojam's model differs from the paper's, as the report lists it (no measured results)
 MODEL_DIFFERENCES: tuple[str, ...] = (
@@ -45,22 +47,28 @@ MODEL_DIFFERENCES: tuple[str, ...] = (
     "IV-C); one run per point, no uncertainty given.",
 )
 
+#: the same for the 3D study (spheres, the half model): the model differences that remain
+MODEL_DIFFERENCES_3D: tuple[str, ...] = (
+    "hydrojam's 3D model has spheres, like the paper's (ABAQUS, 3D), in a chamber of rectangular cross-section "
+    "as deep as one particle plus the clearance. By default it models the half y ≥ 0 with y = 0 a symmetry "
+    "plane (u_y = 0 there), so every state is symmetric about that plane: a column buckling out of it is not "
+    "modelled (the full model: `--set mesh.symmetry=false`, 6-9x the CPU time).",
+    *MODEL_DIFFERENCES[1:],
+)
 
-def _cell(v, fmt: str = "{:.1f}") -> str:
-    """A table cell: the number formatted, or "—" where there is none."""
-    f = number(v)
-    return "—" if f is None else fmt.format(f)
+
+def model_differences(dimension: int) -> tuple[str, ...]:
+    """How hydrojam's model differs from the paper's in a study of ``dimension`` 2 or 3."""
+    return MODEL_DIFFERENCES_3D if dimension == 3 else MODEL_DIFFERENCES
+
+
+_cell = cell
+_pm = cell_pm
 
 
 def _md(text: str) -> str:
     """Text made safe for one cell of a Markdown table."""
     return str(text).replace("|", "\\|").replace("\n", " ")
-
-
-def _pm(r: dict, key: str, fmt: str = "{:.1f}") -> str:
-    """A cell with the replicas' spread: "74.2 ± 3.1" (or the plain value of a single run)."""
-    sd = number(r.get(f"{key}_std"))
-    return _cell(r.get(key), fmt) + ("" if sd is None else " ± " + fmt.format(sd))
 
 
 def _replicated(rows) -> int:
@@ -136,19 +144,24 @@ def _tolerance_text() -> list[str]:
 
 def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float | None,
                  explanations: dict[str, str] | None = None, *, workers: int | None = None,
-                 scheduler: str | None = None, base: Design | None = None) -> Path:
+                 scheduler: str | None = None, base: Design | None = None, compare_2d=None,
+                 compare_source: str | os.PathLike | None = None) -> Path:
     """Write ``OUT/report.md`` (atomically) and return its path.
 
     What was run (quick or full, mesh size, points, workers, wall time, hydrojam version); per
     sweep its figures (``figures/<sweep>_shapes.png``, ``_trends.png``, when written) and a table
     of the points; the claims of PAPER_CLAIMS with hydrojam's numbers and verdicts, the "why" of a
     disagreement from ``explanations`` (claim id -> text) or the claim's ``reason``; the tolerances
-    and the model differences. ``base``: the study's base design (default :func:`paper_base`).
+    and the model differences. ``base``: the study's base design (default :func:`paper_base`);
+    its dimension makes it the 2D or the 3D study's report. A 3D report adds the section "2D
+    against 3D" (:func:`hydrojam.paper.compare.comparison_lines`) with ``compare_2d``, the 2D
+    study's table of the same kind read from folder ``compare_source``, or says how to get it.
     """
     out = Path(out)
     base = base if base is not None else paper_base(quick)
+    dim = base.dimension
     results = check_claims(table)
-    explanations = explanations or {}
+    explanations = {**(DISAGREEMENT_REASONS_3D if dim == 3 else {}), **(explanations or {})}
     all_rows = [r for sw in PAPER_SWEEPS for r in rows_of(table, sw.name)]
     by_key = {}
     for r in all_rows:
@@ -160,15 +173,21 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                 for v in ("agree", "disagree", "undetermined", SPREAD_VERDICT)}
     n_replicas = _replicated(all_rows)
 
-    L = ["# hydrojam reproduction of Chen, Schott & Jovanova, Section IV (Figs. 6-11)", ""]
+    flag = (f"{' --dimension 3' if dim == 3 else ''}{' --quick' if quick else ''}"
+            f"{f' --replicas {n_replicas}' if n_replicas > 1 else ''}")
+    if dim == 3:
+        model = (f"3D (particles are spheres; {'the half model y ≥ 0, y = 0 a symmetry plane' if base.mesh.symmetry else 'the full model'}), "
+                 f"mesh size {base.mesh.size:g} mm (quadratic tetrahedra)")
+    else:
+        model = f"2D plane strain (particles are cylinders), mesh size {base.mesh.size:g} mm (quadratic triangles)"
+    L = [f"# hydrojam reproduction of Chen, Schott & Jovanova, Section IV (Figs. 6-11){', in 3D' if dim == 3 else ''}",
+         ""]
     L += ["## What was run", ""]
-    L += [f"- Study: **{'quick' if quick else 'full'}** (`hydrojam reproduce{' --quick' if quick else ''}"
-          f"{f' --replicas {n_replicas}' if n_replicas > 1 else ''}`), "
-          f"hydrojam {__version__}.",
+    L += [f"- Study: **{'quick' if quick else 'full'}{', 3D' if dim == 3 else ''}** "
+          f"(`hydrojam reproduce{flag}`), hydrojam {__version__}.",
           f"- Base design: the default (PL {base.particle_layers}, h = {base.strain_limit_thickness:g} mm, "
           f"T = {base.stimulus.temperature:g} K, d = {base.particle_diameter:g} mm, "
-          f"{'frictionless' if base.friction == 0 else f'friction {base.friction:g}'}), "
-          f"2D plane strain (particles are cylinders), mesh size {base.mesh.size:g} mm (quadratic triangles).",
+          f"{'frictionless' if base.friction == 0 else f'friction {base.friction:g}'}), {model}.",
           ]
     if n_replicas > 1:
         L.append(f"- Replicas: {n_replicas} per point (`--replicas {n_replicas}`), each with its particle centres "
@@ -176,7 +195,6 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                  "(replica 0 as drawn; docs/replicas.md); the tables and figures give the mean ± standard "
                  "deviation over the replicas that converged, and a statement agrees or disagrees only beyond "
                  "the spread.")
-    flag = f"{' --quick' if quick else ''}{f' --replicas {n_replicas}' if n_replicas > 1 else ''}"
     rerun = f"`hydrojam reproduce{flag} -o {out}`"
     for sw in PAPER_SWEEPS:
         vals = sorted({v for v in (number(r.get(sw.field)) for r in rows_of(table, sw.name)) if v is not None})
@@ -211,8 +229,10 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
           "", "### How each statement is checked", ""]
     L += [f"- **{c.id}**: {c.rule}." for c in PAPER_CLAIMS]
     L += [""] + _tolerance_text() + [""]
+    if dim == 3:
+        L += comparison_lines(table, compare_2d, base, quick=quick, out=out, source=compare_source)
     L += ["## Model differences", ""]
-    L += [f"- {text}" for text in MODEL_DIFFERENCES] + [""]
+    L += [f"- {text}" for text in model_differences(dim)] + [""]
     L += ["## The title question", "",
           "Section IV says how far the actuator bends; whether its particles are good for jamming (how "
           "much stiffer the actuator gets, the force it holds, vacuum jamming of the same chamber, whether "

@@ -3,7 +3,10 @@
 :func:`reproduce` runs the three sweeps of :func:`hydrojam.paper.study.paper_study` with
 :func:`hydrojam.study.sweep.run_sweep`, draws their figures (:mod:`hydrojam.paper.figures`) into
 ``OUT/figures/`` and writes ``OUT/report.md`` (:mod:`hydrojam.paper.report`), which checks the
-paper's statements (:mod:`hydrojam.paper.claims`) against hydrojam's numbers.
+paper's statements (:mod:`hydrojam.paper.claims`) against hydrojam's numbers. With
+``dimension=3`` it runs the same points in 3D (spheres, the half model: the study "paper-3d" or
+"paper-3d-quick", never mixed with a 2D one in one folder), and the report compares them with the
+2D study of the same kind in ``compare_2d`` (:mod:`hydrojam.paper.compare`).
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from hydrojam.paper.compare import read_2d_results
 from hydrojam.paper.figures import write_figures
 from hydrojam.paper.report import write_report
 from hydrojam.paper.study import paper_study
@@ -24,18 +28,26 @@ __all__ = ["reproduce"]
 def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | None = None,
               scheduler: str | None = None, sweeps: Sequence[str] | None = None,
               on_point: Callable[[PointOutcome, int, int], None] | None = None,
-              replicas: int = 1) -> tuple[SweepTable, Path]:
+              replicas: int = 1, dimension: int = 2,
+              compare_2d: str | os.PathLike | None = None) -> tuple[SweepTable, Path]:
     """Run the Section IV study into ``out`` (:func:`hydrojam.study.sweep.run_sweep` with
     ``workers``, ``scheduler`` and ``on_point``; quick: a subset on a 4 mm mesh; ``sweeps``: only
     those named, the others can be added by a later call into the same folder; ``replicas`` per
     point: the table, figures and verdicts then use their mean and spread), write the
     figures into ``OUT/figures/`` and ``OUT/report.md``; returns (SweepTable, report path).
-    The report's wall time [s] is this call's."""
+    The report's wall time [s] is this call's. ``dimension`` 2 or 3 (ValueError otherwise, and
+    StudyError, nothing run, for an OUT holding the other dimension's or kind's study);
+    ``compare_2d``: with dimension 3, a folder holding the 2D study of the same kind, read
+    before anything runs (:func:`hydrojam.paper.compare.read_2d_results`; CompareError, a
+    ValueError, when unusable; ValueError with dimension 2), for the report's 2D-against-3D table."""
     out = Path(out)
     t0 = time.perf_counter()
-    study = paper_study(quick, sweeps, replicas)
+    study = paper_study(quick, sweeps, replicas, dimension)
+    if compare_2d is not None and dimension != 3:
+        raise ValueError("compare_2d: only with dimension 3 (it compares a 3D study with a 2D one)")
+    table_2d = read_2d_results(compare_2d, quick) if compare_2d is not None else None
     table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point)
     write_figures(out, table)
     report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler,
-                          base=study.base)
+                          base=study.base, compare_2d=table_2d, compare_source=compare_2d)
     return table, report

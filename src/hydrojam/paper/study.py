@@ -1,9 +1,11 @@
 """The paper's Section IV study (Chen, Schott & Jovanova, Figs. 6-11): three one-parameter sweeps
-round the default design (PL 5, h 8 mm, 275 K; 2D plane strain).
+round the default design (PL 5, h 8 mm, 275 K), in 2D plane strain (cylinders; the default) or
+in 3D (spheres, the half model: ``dimension=3``, a study of its own name).
 
 Temperature (Figs. 6-7), particle layers (Figs. 8-9) and strain-limit layer thickness
 (Figs. 10-11), each a :class:`PaperSweep`; :func:`paper_study` makes them one
-:class:`hydrojam.study.spec.Study`. The quick study runs a subset of the points on a coarser mesh.
+:class:`hydrojam.study.spec.Study`. The quick study runs a subset of the points on a coarser mesh
+(QUICK_MESH_SIZE, in 2D and 3D alike); the full study runs all of them at the default design's 2 mm.
 Units: mm, K.
 """
 
@@ -16,6 +18,7 @@ from hydrojam.actuator.design import Design, apply_overrides, default_design, wi
 from hydrojam.study.spec import Study, SweepSpec
 
 __all__ = [
+    "DIMENSIONS",
     "PARTICLE_LAYERS",
     "PAPER_SWEEPS",
     "PaperSweep",
@@ -29,11 +32,15 @@ __all__ = [
     "paper_points",
     "paper_study",
     "paper_sweep",
+    "study_kind",
+    "study_name",
     "sweep_of_field",
 ]
 
 #: mesh size of the quick study [mm]; the design allows at most d/4 = 4 mm
 QUICK_MESH_SIZE = 4.0
+#: the dimensions a study runs in: 2 (plane strain, cylinders) or 3 (spheres, half model)
+DIMENSIONS = (2, 3)
 
 TEMPERATURES_K = [275.0, 280.0, 285.0, 290.0, 295.0]
 PARTICLE_LAYERS = list(range(5, 20))
@@ -82,10 +89,36 @@ def sweep_of_field(field: str) -> PaperSweep | None:
     return _BY_FIELD.get(field)
 
 
-def paper_base(quick: bool = False, replicas: int = 1) -> Design:
+def _check_dimension(dimension) -> int:
+    """``dimension`` if it is one of DIMENSIONS, else ValueError naming the allowed values."""
+    if isinstance(dimension, bool) or dimension not in DIMENSIONS:
+        raise ValueError(f"dimension: allowed {' or '.join(map(str, DIMENSIONS))} (got {dimension!r})")
+    return int(dimension)
+
+
+def study_name(quick: bool = False, dimension: int = 2) -> str:
+    """The study's name, also the one ``OUT/study.toml`` records: "paper", "paper-quick" (2D),
+    "paper-3d", "paper-3d-quick" (3D). Two kinds never share an output folder (the sweep refuses
+    an OUT holding another name)."""
+    return "paper" + ("-3d" if _check_dimension(dimension) == 3 else "") + ("-quick" if quick else "")
+
+
+def study_kind(name: str) -> tuple[bool, int] | None:
+    """(quick, dimension) of a paper study's name (:func:`study_name`), or None for another study."""
+    for quick in (False, True):
+        for dimension in DIMENSIONS:
+            if study_name(quick, dimension) == name:
+                return quick, dimension
+    return None
+
+
+def paper_base(quick: bool = False, replicas: int = 1, dimension: int = 2) -> Design:
     """The base design of every sweep: the default (PL 5, h 8 mm, 275 K, 2D); quick: mesh
-    size QUICK_MESH_SIZE [mm]; ``replicas`` per point (replicas.count)."""
+    size QUICK_MESH_SIZE [mm]; ``replicas`` per point (replicas.count); ``dimension`` 3: the same
+    design with spheres (the half model, the design's default), ValueError for another dimension."""
     base = default_design()
+    if _check_dimension(dimension) == 3:
+        base = apply_overrides(base, ["dimension=3"])
     if quick:
         base = apply_overrides(base, [f"mesh.size={QUICK_MESH_SIZE!r}"])
     return with_replicas(base, replicas) if replicas != 1 else base
@@ -97,16 +130,19 @@ def paper_points(quick: bool = False) -> dict[str, dict[str, list]]:
     return {s.name: {s.field: list(s.quick_values if quick else s.values)} for s in PAPER_SWEEPS}
 
 
-def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None, replicas: int = 1) -> Study:
-    """The Section IV study as a :class:`hydrojam.study.spec.Study` named "paper" ("paper-quick"):
-    sweeps "temperature", "particle_layers", "strain_limit_thickness" round :func:`paper_base`
-    (``sweeps``: only those named, in the paper's order; ValueError naming the allowed ones for
-    an unknown name), ``replicas`` runs per point (replica 0 of each is the single run's point,
+def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None, replicas: int = 1,
+                dimension: int = 2) -> Study:
+    """The Section IV study as a :class:`hydrojam.study.spec.Study` named :func:`study_name`
+    ("paper", "paper-quick"; in 3D "paper-3d", "paper-3d-quick"): sweeps "temperature",
+    "particle_layers", "strain_limit_thickness" round :func:`paper_base` (``sweeps``: only those
+    named, in the paper's order; ValueError naming the allowed ones for an unknown name, or the
+    allowed dimensions), ``replicas`` runs per point (replica 0 of each is the single run's point,
     so a study with more replicas reuses a finished single-run study in the same folder). The
-    base point (275 K, PL 5, h 8 mm) lies in all three."""
+    base point (275 K, PL 5, h 8 mm) lies in all three. The 3D study has the 2D one's points."""
+    name = study_name(quick, dimension)
     points = paper_points(quick)
     unknown = [s for s in (sweeps or ()) if s not in points]
     if unknown:
         raise ValueError(f"unknown sweep {', '.join(map(repr, unknown))}; allowed: {', '.join(points)}")
-    sweeps = [SweepSpec(name=name, vary=vary) for name, vary in points.items() if sweeps is None or name in sweeps]
-    return Study(name="paper-quick" if quick else "paper", base=paper_base(quick, replicas), sweeps=sweeps)
+    sweeps = [SweepSpec(name=sweep, vary=vary) for sweep, vary in points.items() if sweeps is None or sweep in sweeps]
+    return Study(name=name, base=paper_base(quick, replicas, dimension), sweeps=sweeps)
