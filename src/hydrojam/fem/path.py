@@ -15,7 +15,6 @@ from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
 from hydrojam.fem.newton import (NewtonOptions, NewtonResult, NewtonStatus, Timings, minimize, negative_curvature,
                                  sum_energy)
 from hydrojam.fem.problem import Problem
-from hydrojam.fem.terms import by_name
 
 
 @dataclass(frozen=True)
@@ -176,7 +175,7 @@ def solve_path(
     x = res0.x.ravel().copy()
     message = "converged"
     newton, last_resort = options.newton, False
-    damped = by_name(terms0).get(options.damped_term)
+    damped = next((t for t in terms0 if t.name == options.damped_term), None)
     base = getattr(damped, "scale", None)
     if not base:  # no such term, or one switched off: nothing to adapt
         damped = None
