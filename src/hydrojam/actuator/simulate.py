@@ -272,12 +272,13 @@ def simulate(
 
 
 def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80, first_scale: float = 1.0,
-             easy_round: int | None = None, lower: float = 10.0, direct: bool = False):
+             easy_round: int | None = None, lower: float = 10.0, direct: bool = False, after_failure: int = 20):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
     on the last state (and lagged friction frozen there, as at a load step's start), again and
     again, the damping (``first_scale`` x the path's at first) lowered ``lower``x after every
     converged round (with ``easy_round``: only after a round of
-    at most that many Newton iterations) and raised 10x after a failed one. ``direct``: first
+    at most that many Newton iterations; after a failed round, only after one of at most
+    ``after_failure``) and raised 10x after a failed one. ``direct``: first
     minimise the physics alone (damping 0) from the stabilised state, and the rounds only if
     that fails. The viscous force left at the end of a round is exactly the residual of the
     physics alone, so the state is an equilibrium once that force is below the solver's
@@ -287,7 +288,7 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80, fi
     free = problem.free_mask()
     rtol = options.newton.rtol
     solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: PARDISO's set-up costs 0.4 s
-    its, scale, rounds = 0, first_scale * stab.scale, []
+    its, scale, rounds, failed = 0, first_scale * stab.scale, [], False
     if direct:
         stab.scale = 0.0
         res = minimize(terms(1.0), x, free, problem.force_scale, options.newton, solver)
@@ -309,12 +310,17 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80, fi
             if scale >= 1e3:
                 break
             scale *= 10.0
+            failed = True
             continue
         x = res.x
         viscous = float(np.linalg.norm(stab.gradient(x)[free]))
         in_play = float(np.linalg.norm(by_name(ts)["elastic"].force_flux(x)[free]))
         if viscous <= max(rtol * in_play, options.newton.residual_floor * problem.force_scale):
             return x, its, True, rounds
-        if easy_round is None or res.iterations <= easy_round:
+        # after a failed round, lower again only after an easy round: otherwise a state still
+        # travelling alternates between a round that converges and a lower one that fails
+        limit = easy_round if easy_round is not None else (after_failure if failed else None)
+        if limit is None or res.iterations <= limit:
             scale = max(scale / lower, 1e-8)
+            failed = False
     return x, its, False, rounds
