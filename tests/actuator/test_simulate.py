@@ -169,3 +169,58 @@ def test_a_second_run_on_the_same_model_starts_without_the_first_runs_friction()
     first, second = simulate(model), simulate(model)
     assert first.newton_iterations == second.newton_iterations
     assert np.array_equal(first.final.x, second.final.x)
+
+
+def test_the_release_lowers_the_damping_after_a_failure_only_after_an_easy_round(monkeypatch):
+    """The release's control (actuator.simulate._release) on a stand-in minimisation: rounds at
+    damping scale >= 1 converge, each moving halfway to the physics' equilibrium x* (iterations
+    30, then 5 once the move is small), rounds below 1 fail (200 iterations). After the first
+    failure the scale stays at 1 until a round is easy (<= 20 iterations), instead of trying 0.1
+    after every converged round; the state is released once the viscous force is below the
+    tolerance."""
+    import hydrojam.actuator.simulate as sim
+    from hydrojam.fem.newton import NewtonResult, NewtonStatus, Timings
+    from hydrojam.fem.problem import Problem
+    from hydrojam.fem.terms import EnergyTerm, ViscousStabilisation
+
+    target = np.array([[1.0, 0.0]])
+
+    class Spring(EnergyTerm):  # the physics: k/2 |x - x*|^2
+        name = "elastic"
+
+        def energy(self, x):
+            return 0.5 * float(np.sum((np.ravel(x) - target.ravel()) ** 2))
+
+        def gradient(self, x):
+            return np.ravel(x) - target.ravel()
+
+        def hessian(self, x, project=False):
+            import scipy.sparse as sp
+
+            return sp.identity(np.size(x), format="csr")
+
+        def force_flux(self, x, gradient=None):
+            return np.ones(np.size(x))  # forces in play: 1 N per DOF
+
+    stab = ViscousStabilisation(np.ones(1), 1.0, 2)
+    problem = Problem(np.zeros((1, 2)), lambda s: [Spring(), stab], force_scale=1.0)
+
+    def fake_minimize(terms, x, free, force_scale, options, solver):
+        x = np.asarray(x, dtype=float)
+        if stab.scale < 1:
+            return NewtonResult(x, NewtonStatus.MAX_ITERATIONS, 200, 1.0, 0.0, "", [], Timings())
+        move = 0.5 * (target - x)
+        its = 30 if np.abs(move).max() > 1e-3 else 5
+        return NewtonResult(x + move, NewtonStatus.CONVERGED, its, 0.0, 0.0, "", [], Timings())
+
+    monkeypatch.setattr(sim, "minimize", fake_minimize)
+    x, its, released, rounds = sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms,
+                                            Timings(), max_rounds=80)
+    scales = [r[0] for r in rounds]
+    assert scales[:2] == [1.0, 0.1] and not rounds[1][2]  # lowered after the first round, failed
+    first_easy = next(i for i, r in enumerate(rounds) if r[2] and r[1] <= 20)
+    assert first_easy > 3 and all(sc == 1.0 for sc in scales[2:first_easy + 1])  # held until easy
+    for i in range(2, len(rounds) - 1):  # every lowering after the first failure follows an easy round
+        if scales[i + 1] < scales[i]:
+            assert rounds[i][2] and rounds[i][1] <= 20
+    assert released and np.allclose(x, target, atol=1e-5)
