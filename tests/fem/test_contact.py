@@ -270,7 +270,7 @@ def test_gel_spheres_jam_in_a_rigid_box_3d():
     assert sum(1 for a, b in pairs if b == 1000) >= 2 and sum(1 for a, b in pairs if b < 1000) >= 2
 
 
-def _block_on_ground(tan_theta, mu):
+def _block_on_ground(tan_theta, mu, again=False):
     """A block (2 x 1 mm) on a fixed ground under gravity whose tangential part ramps up after the
     normal part: s in [0, 0.5] normal load, s in [0.5, 1] tangential load up to tan(theta) x normal."""
     dhat = 1e-3
@@ -292,6 +292,8 @@ def _block_on_ground(tan_theta, mu):
     watch = Watch(C)
     res = solve_path(prob, PathOptions(ds0=0.05, ds_max=0.05, ds_min=2e-3), callback=watch)
     slip = (res.x - m.points)[m.group_nodes("block"), 0].mean()
+    if again:  # the same path again on the same terms (the contact's friction lagged by the first)
+        return res, solve_path(prob, PathOptions(ds0=0.05, ds_max=0.05, ds_min=2e-3))
     return res, slip
 
 
@@ -302,6 +304,15 @@ def test_friction_block_sticks_below_the_friction_angle():
     res, slip = _block_on_ground(0.3, 0.5)
     assert res.converged, res.message
     assert abs(slip) < 0.01
+
+
+def test_a_path_starts_without_the_friction_lagged_by_an_earlier_path_on_the_same_terms():
+    """Friction is lagged (frozen at each step's start); solve_path freezes it afresh at s = 0,
+    so a second path on the same terms (a tip curve's -x branch after its +x one) is the first
+    one again, to the bit, instead of starting from the first path's last lag."""
+    first, second = _block_on_ground(0.3, 0.5, again=True)
+    assert first.converged and second.converged
+    assert np.array_equal(first.x, second.x) and first.newton_iterations == second.newton_iterations
 
 
 def test_friction_block_slides_above_the_friction_angle():

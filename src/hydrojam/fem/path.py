@@ -148,7 +148,8 @@ def solve_path(
     On failure below the minimum increment, returns with the last converged state and a message
     saying where and why. ``callback(s, x, record)`` runs after
     every accepted step, ``on_attempt(s_try, ds, newton_result)`` after every attempt (progress).
-    Every term's ``begin_step`` runs at the start of every step. With
+    Every term's ``begin_step`` runs at the start of the path (s = 0: nothing lagged survives
+    from an earlier path on the same terms) and of every step. With
     ``options.stability_check`` every accepted state's physical Hessian is tested for negative
     eigenvalues (:attr:`StepRecord.negative_eigenvalues`, :attr:`PathResult.unstable_at_s`).
     A term named ``options.damped_term`` with a ``scale`` (a viscous stabilisation) is damped
@@ -167,6 +168,8 @@ def solve_path(
     # equilibrate at s = 0 first (a no-op for a stress-free reference)
     s, ds, rejected = 0.0, options.ds0, 0
     terms0 = problem.terms(0.0)
+    for t in terms0:  # nothing lagged (friction) survives from an earlier path on the same terms
+        t.begin_step(x.reshape(shape))
     res0 = minimize(terms0, x.reshape(shape), free, problem.force_scale, options.newton, solver)
     tm.add(res0.timings)
     if not res0.converged:
