@@ -44,10 +44,10 @@ class PathOptions:
     """Name of the term whose ``scale`` (a viscous stabilisation's) the adaptive damping sets."""
     damping_growth: float = 10.0
     """Adaptive damping (as ABAQUS's adaptive automatic stabilisation): a step whose Newton
-    minimisation fails (out of iterations, no descent) is retried at the same increment with the damped term's scale times this
-    (up to ``max_damping``), before the increment is cut; every easy step divides it again,
-    down to where the path started. 1: off. A snap that the weak damping lets travel far within
-    one step then travels in several damped steps."""
+    minimisation fails (out of iterations, no descent) is retried at the same increment with the
+    damped term's scale times this (up to ``max_damping``) before the increment is cut; every
+    easy step divides it again, down to where the path started. 1: off. A snap that the weak
+    damping lets travel far within one step then travels in several damped steps."""
     max_damping: float = 100.0
     """Largest scale of the damped term, relative to its scale at the start of the path."""
 
