@@ -21,6 +21,14 @@ def design_file(tmp_path):
     return path
 
 
+def _refused(command, design_file, tmp_path, capsys, *args) -> str:
+    """Run ``hydrojam COMMAND DESIGN -o OUT ARGS``: exit status 2 and nothing written; its stderr."""
+    out = tmp_path / "out"
+    assert main([command, str(design_file), "-o", str(out), *args]) == 2
+    assert not out.exists()
+    return capsys.readouterr().err
+
+
 @pytest.mark.parametrize("args, words", [
     (["--max-force", "-1"], "--max-force: input should be greater than 0"),
     (["--max-force", "nan"], "--max-force: must be a finite number"),
@@ -29,21 +37,15 @@ def design_file(tmp_path):
     (["--temperatures", "cold"], "--temperatures: expected comma-separated numbers"),
 ])
 def test_bad_loads_are_refused_before_any_work(tmp_path, design_file, capsys, args, words):
-    out = tmp_path / "out"
-    assert main(["assess", str(design_file), "-o", str(out), *args]) == 2
-    err = capsys.readouterr().err
+    err = _refused("assess", design_file, tmp_path, capsys, *args)
     assert words in err and len(err.strip().splitlines()) == 1
-    assert not out.exists()
 
 
 def test_unknown_key_in_a_loads_file_is_refused(tmp_path, design_file, capsys):
     loads = tmp_path / "loads.toml"
     loads.write_text("vacuum_presure = 50\n")
-    out = tmp_path / "out"
-    assert main(["assess", str(design_file), "-o", str(out), "--loads", str(loads)]) == 2
-    err = capsys.readouterr().err
+    err = _refused("assess", design_file, tmp_path, capsys, "--loads", str(loads))
     assert "vacuum_presure: unknown key (allowed: max_force, temperatures, vacuum_pressure" in err
-    assert not out.exists()
     with pytest.raises(AssessError, match="baseline_particles.shear_modulus"):
         loads_from_dict({"baseline_particles": {"shear_modulus": -1}})
 
@@ -99,8 +101,5 @@ def test_design_map_runs_as_a_cached_sweep(tmp_path):
     (["--workers", "0"], "--workers: must be >= 1"),
 ])
 def test_design_map_refuses_bad_ranges_before_any_work(tmp_path, design_file, capsys, args, words):
-    out = tmp_path / "out"
-    assert main(["design-map", str(design_file), "-o", str(out), *args]) == 2
-    err = capsys.readouterr().err
+    err = _refused("design-map", design_file, tmp_path, capsys, *args)
     assert words in err and len(err.strip().splitlines()) == 1
-    assert not out.exists()

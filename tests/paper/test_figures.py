@@ -33,7 +33,7 @@ def test_read_shape_moves_reference_points_by_displacement(tmp_path):
     xyz = lambda a: np.column_stack([a[:, 0], np.zeros(len(a)), a[:, 1]])  # noqa: E731
     meshio.write(tmp_path / "final.vtu", meshio.Mesh(xyz(p), [("triangle6", c)], point_data={"displacement": xyz(disp)},
                                                      cell_data={"body_id": [np.array([0, 1], dtype=np.int32)]}))
-    pts, tris, body, outline = pfigures._read_shape(tmp_path)
+    pts, tris, body, outline = pfigures._read_drawing(tmp_path)[:4]
     np.testing.assert_allclose(pts, p + disp)
     assert tris.shape == (8, 3) and list(body) == [0] * 4 + [1] * 4
     np.testing.assert_allclose(outline.min(axis=0), [-14.1, -88.5])
@@ -41,7 +41,7 @@ def test_read_shape_moves_reference_points_by_displacement(tmp_path):
     # without a displacement field the points are taken as deformed, and there is no outline
     meshio.write(tmp_path / "final.vtu", meshio.Mesh(xyz(p + disp), [("triangle6", c)],
                                                      cell_data={"body_id": [np.array([0, 1], dtype=np.int32)]}))
-    pts, _, _, outline = pfigures._read_shape(tmp_path)
+    pts, _, _, outline = pfigures._read_drawing(tmp_path)[:4]
     np.testing.assert_allclose(pts, p + disp)
     assert outline is None
 

@@ -37,11 +37,6 @@ def _sweep_for(param: str, label: str | None = None, unit: str | None = None) ->
     return symbol, label or (sw.label if sw else param), unit if unit is not None else (sw.unit if sw else "")
 
 
-def _read_shape(point_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """:func:`_read_drawing` without the flag."""
-    return _read_drawing(point_dir)[:4]
-
-
 def _read_drawing(point_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, bool]:
     """Deformed positions (n, 2), triangles (k, 3), their body ids and the undeformed outer outline
     (a closed rectangle (5, 2), or None) from ``final.vtu``, all in (x, z) [mm].
