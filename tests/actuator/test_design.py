@@ -138,6 +138,7 @@ def test_write_and_load(tmp_path):
         ({"mesh": {"size": float("nan")}}, ["mesh.size", "finite"]),
         ({"clearance": 4.0}, ["clearance", "< particle_diameter/4"]),
         ({"friction": 3}, ["friction", "[0, 2]"]),
+        ({"friction_slip": 0.0}, ["friction_slip", "(0, 1]", "got 0"]),
         ({"replicas": {"count": 0}}, ["replicas.count", "[1, 1000]", "got 0"]),
         ({"replicas": {"count": 1001}}, ["replicas.count", "[1, 1000]"]),
         ({"replicas": {"jitter": 0.0}}, ["replicas.jitter", "(0, 0.1]"]),

@@ -184,6 +184,16 @@ def test_contact_starts_intersection_free_and_inactive(model, X):
     assert model.contact.active(X) == 0
 
 
+def test_the_designs_friction_reaches_the_contact_term():
+    """friction and friction_slip [mm] are the contact's Coulomb coefficient and static slip;
+    friction_slip omitted leaves the contact's own default (1% of dhat)."""
+    drawn = build_model(apply_overrides(default_design(), ["particle_layers=1", "mesh.size=4", "friction=0.05"]))
+    assert drawn.contact.settings.friction == 0.05
+    assert drawn.contact.settings.friction_eps is None
+    set_ = build_model(apply_overrides(default_design(), ["particle_layers=1", "mesh.size=4", "friction_slip=0.002"]))
+    assert set_.contact.settings.friction_eps == 0.002
+
+
 def test_contact_components_are_one_per_particle_and_one_wall(model):
     comps = model.components
     for k, cells in enumerate(model.particle_cells):

@@ -318,6 +318,13 @@ class Design(BaseModel):
         description="Coulomb friction coefficient, particle-particle and particle-membrane; default 0.01: "
         "swollen hydrogel in water (docs/contact.md, \"Friction\") [-]",
     )
+    friction_slip: float | None = Field(
+        None,
+        gt=0,
+        le=1,
+        description="tangential slip below which friction is static (IPC's eps_v times the step); "
+        "omitted: 1% of the contact activation distance (docs/contact.md, \"Friction\") [mm]",
+    )
     membrane: ElastomerSpec = Field(ElastomerSpec(), description="membrane elastomer (default Ecoflex 00-30)")
     strain_limit_layer: ElastomerSpec = Field(
         ElastomerSpec(), description="strain-limit layer elastomer (default Ecoflex 00-30)"

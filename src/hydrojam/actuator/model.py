@@ -215,6 +215,7 @@ def build_model(design: Design) -> ActuatorModel:
     kappa = KAPPA_PER_MEMBRANE_MODULUS * membrane.shear_modulus_ref
     settings = default_settings(mesh.points, facets, membrane.shear_modulus_ref,
                                 dhat=DHAT_PER_CLEARANCE * design.clearance, kappa=kappa, friction=design.friction,
+                                friction_eps=design.friction_slip,
                                 **ccd)
     contact = Contact(mesh.points, facets, components, settings)
     segments = _straight_pieces(mesh.facet_groups["cavity"])

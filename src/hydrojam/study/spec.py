@@ -77,12 +77,14 @@ def design_key(design: Design) -> str:
     Equal designs written differently (a derived cavity size left out or written out) share a key.
     Of the ``replicas`` table only what changes the run counts: nothing for replica 0 (the design
     as drawn, the key it had before replicas existed), seed, jitter and index for another; of
-    ``mesh.symmetry`` nothing in 2D.
+    ``mesh.symmetry`` nothing in 2D; of ``friction_slip`` nothing when omitted.
     """
     dumped = design.resolved().model_dump(mode="json")
     replicas = dumped.pop("replicas")
     if design.dimension == 2:  # no symmetry plane in 2D: the key it had before 3D existed
         dumped["mesh"].pop("symmetry", None)
+    if dumped.get("friction_slip") is None:  # the derived default: the key it had before the field
+        dumped.pop("friction_slip", None)
     if replicas["index"] > 0:
         dumped["replica"] = {k: replicas[k] for k in ("seed", "jitter", "index")}
     data = {"cache_format": CACHE_FORMAT, "design": dumped}
