@@ -174,6 +174,39 @@ def test_pardiso_settings_change_round_off_only(monkeypatch, settings):
         assert solver._pardiso._ps.iparm[i - 1] == value
 
 
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_a_3d_dense_pattern_is_ordered_by_metis_and_a_2d_one_by_minimum_degree(monkeypatch):
+    """The ordering follows the pattern's density (``_Pardiso.dense_row`` upper entries a row):
+    a 3D grid Laplacian with its 26 neighbours (14 upper entries a row, shifted indefinite,
+    dense_row lowered to 10) is analysed with METIS (iparm(2) = 2), the 2D grid of
+    :func:`_contact_sequence` (3 a row) with minimum degree (0); both solve to
+    100 x eps x cond(K) relative to |x| against numpy's dense solve."""
+    from hydrojam.fem.linsolve import _Pardiso
+
+    m = 7
+    idx = np.arange(m**3).reshape(m, m, m)
+    rows, cols = [], []
+    for d in np.ndindex(3, 3, 3):
+        a = idx[tuple(slice(max(0, k - 1), m + min(0, k - 1)) for k in d)]
+        b = idx[tuple(slice(max(0, 1 - k), m + min(0, 1 - k)) for k in d)]
+        rows.append(a.ravel())
+        cols.append(b.ravel())
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    A = sp.csr_matrix((-np.ones(len(rows)), (rows, cols)), shape=(m**3, m**3))
+    K3 = (A + sp.identity(m**3) * 27.0 - 2.0 * sp.identity(m**3)).tocsr()
+    rng = np.random.default_rng(0)
+    cases = [(K3, 2), (_contact_sequence(seed=3, steps=1)[0][0], 0)]
+    monkeypatch.setattr(_Pardiso, "dense_row", 10.0)
+    for K, ordering in cases:
+        solver = LinearSolver("pardiso")
+        b = rng.standard_normal(K.shape[0])
+        x = solver.solve(K, b)
+        assert solver._pardiso._ps.iparm[1] == ordering
+        Kd = K.toarray()
+        x_ref = np.linalg.solve(Kd, b)
+        assert np.linalg.norm(x - x_ref) <= 100 * np.finfo(float).eps * np.linalg.cond(Kd) * np.linalg.norm(x_ref)
+
+
 @pytest.mark.skipif(not _pardiso_available(), reason="PARDISO (MKL) not installed")
 @pytest.mark.parametrize("negative", [0, 1, 7])
 def test_pardiso_reports_the_inertia_of_a_symmetric_indefinite_matrix(negative):

@@ -48,6 +48,14 @@ class _Pardiso:
     count (the parallel METIS, iparm(2) = 3, would rule CNR out). Each changes round-off only;
     docs/solver.md gives the measurements ({} restores MKL's defaults)."""
 
+    dense_ordering: int = 2
+    """iparm(2) for patterns of more than ``dense_row`` upper-triangle entries a row (3D: tet10
+    meshes give about 34, 2D tri6 about 10): MKL's sequential METIS, nested dissection, which
+    fills less than minimum degree on a 3D mesh's graph (sequential, so it keeps CNR; measured
+    in docs/solver.md). Applied only where ``settings`` sets iparm(2)."""
+
+    dense_row: float = 20.0
+
     _mkl_rt: str | None = None
     """Path of the MKL runtime found by the first handle: later handles skip pypardiso's search
     of the whole environment for it (a recursive glob, about 0.1-0.3 s a handle)."""
@@ -92,6 +100,9 @@ class _Pardiso:
         if b.shape != (n,):
             raise ValueError(f"right-hand side of shape {b.shape} for a matrix of {n} rows")
         b = np.ascontiguousarray(b, dtype=np.float64)
+        if not reuse_analysis and 2 in self.settings:
+            dense = len(ja) > self.dense_row * n
+            ps.iparm[1] = self.dense_ordering if dense else self.settings[2]
         x = np.zeros_like(b)
         err = ctypes.c_int32(0)
         i32, f64 = ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_double)
