@@ -34,6 +34,13 @@ ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=3
                             newton=NewtonOptions(max_iter=200))
 
 
+#: most proximal rounds of the release at s = 1 (docs/actuator.md, "Stabilisation"): the long
+#: chambers with friction travel far from their stabilised state (PL 19 at the quick mesh
+#: released in 122 rounds; stopped at 80 it ended a stabilised state 31 deg from that
+#: equilibrium), while the default design releases in 4-5
+RELEASE_ROUNDS = 240
+
+
 #: load-path settings with a time-resolved stimulus: steps of at most 0.025 in s from the first
 #: (40 or more states), so that theta(t) is resolved (s is spread over the particles' swelling
 #: and the log time) and no step is long against the particles' tau (their water relaxes within
@@ -271,7 +278,7 @@ def simulate(
                             res.rejected_steps, timings, stabilisation_info)
 
 
-def _release(problem, stab, x, options, terms, timings, max_rounds: int = 80, first_scale: float = 1.0,
+def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEASE_ROUNDS, first_scale: float = 1.0,
              easy_round: int | None = None, lower: float = 10.0, direct: bool = False, after_failure: int = 20):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
     on the last state (and lagged friction frozen there, as at a load step's start), again and
