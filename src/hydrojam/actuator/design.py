@@ -323,7 +323,7 @@ class Design(BaseModel):
         gt=0,
         le=1,
         description="tangential slip below which friction is static (IPC's eps_v times the step); "
-        "omitted: 1% of the contact activation distance (docs/contact.md, \"Friction\") [mm]",
+        "omitted: 1% of the contact activation distance (docs/contact.md, \"The static slip\") [mm]",
     )
     membrane: ElastomerSpec = Field(ElastomerSpec(), description="membrane elastomer (default Ecoflex 00-30)")
     strain_limit_layer: ElastomerSpec = Field(
@@ -560,7 +560,8 @@ _DERIVED = {
 
 
 #: an example for optional keys left out (written commented out)
-_EXAMPLES = {"schedule": "[[0, 300], [60, 275], [7200, 275]]"}
+_EXAMPLES = {"schedule": "[[0, 300], [60, 275], [7200, 275]]",
+             "friction_slip": "0.0008  # 1% of dhat = 0.8 clearance, at the default clearance"}
 
 
 def _toml(value) -> str:

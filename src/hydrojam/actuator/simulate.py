@@ -34,10 +34,9 @@ ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=3
                             newton=NewtonOptions(max_iter=200))
 
 
-#: most proximal rounds of the release at s = 1 (docs/actuator.md, "Stabilisation"): the long
-#: chambers with friction travel far from their stabilised state (PL 19 at the quick mesh
-#: released in 122 rounds; stopped at 80 it ended a stabilised state 31 deg from that
-#: equilibrium), while the default design releases in 4-5
+#: most proximal rounds of the release at s = 1: a long chamber with friction travels far from
+#: its stabilised state, and a cap it reaches reports a state of the damping, not an
+#: equilibrium (docs/actuator.md, "The release of the long chambers")
 RELEASE_ROUNDS = 240
 
 

@@ -49,12 +49,14 @@ class _Pardiso:
     docs/solver.md gives the measurements ({} restores MKL's defaults)."""
 
     dense_ordering: int = 2
-    """iparm(2) for patterns of more than ``dense_row`` upper-triangle entries a row (3D: tet10
-    meshes give about 34, 2D tri6 about 10): MKL's sequential METIS, nested dissection, which
-    fills less than minimum degree on a 3D mesh's graph (sequential, so it keeps CNR; measured
-    in docs/solver.md). Applied only where ``settings`` sets iparm(2)."""
+    """iparm(2) for patterns denser than ``dense_row``: MKL's sequential METIS (nested
+    dissection), which fills less than minimum degree on a 3D mesh's graph and, being
+    sequential, keeps CNR (docs/solver.md, "3D: ordering, threads"). Applied only where
+    ``settings`` sets iparm(2)."""
 
     dense_row: float = 20.0
+    """Upper-triangle entries a row above which a pattern counts as dense: tet10 meshes lie
+    above it, tri6 meshes below."""
 
     _mkl_rt: str | None = None
     """Path of the MKL runtime found by the first handle: later handles skip pypardiso's search
