@@ -119,6 +119,14 @@ def _usable(r: dict | None) -> bool:
     return r is not None and point_status(r) != "failed" and number(r.get("bending_angle_deg")) is not None
 
 
+def _tip_up(up: str, down: str, theta: float) -> str:
+    """Why the ``up`` model's tip rises (δz > 0) where the ``down`` one's falls: a bend past 90°
+    (|θ| [deg] > 90) curls the free end up; a smaller bend with the tip up is a chamber that shortens."""
+    if abs(theta) > 90.0:
+        return f"the {up} actuator bends past 90°, so its tip rises (δz > 0) where the {down} one's stays below the clamp"
+    return f"the {up} chamber shortens (tip up) where the {down} one bends down"
+
+
 def _change(r2: dict | None, r3: dict | None, temperature: float | None,
             stretches: tuple[float, float] | None) -> str:
     """What changes from 2D to 3D at one point and why (a hypothesis), in words."""
@@ -153,9 +161,9 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
     z2, z3 = number(r2.get("tip_dz_mm")), number(r3.get("tip_dz_mm"))
     if z2 is not None and z3 is not None and scale >= STRAIGHT_DEG:
         if z2 > 0 > z3:
-            text += "; the 2D chamber shortens (tip up) where the 3D one bends down"
+            text += "; " + _tip_up("2D", "3D", t2)
         elif z3 > 0 > z2:
-            text += "; the 3D chamber shortens (tip up) where the 2D one bends down"
+            text += "; " + _tip_up("3D", "2D", t3)
     late = [dim for r, dim in ((r2, "2D"), (r3, "3D")) if point_status(r) == "not_converged"]
     if late:
         text += f" ({' and '.join(late)} not converged: an intermediate state)"
