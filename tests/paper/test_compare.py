@@ -54,18 +54,21 @@ def test_compare_points_pairs_the_same_designs_and_says_what_changes():
     assert by["h = 12 mm"].change.startswith("no comparison: the 3D point failed")
 
 
-def test_a_tip_that_rises_past_90_degrees_is_a_curl_not_a_shortening():
-    """δz > 0 in 3D with θ > 90° (measured: the 3D default design, 120.5°, δz +31 mm) is the free end
-    curled up past horizontal; with θ < 90° it is a chamber that shortens."""
+def test_a_tip_that_rises_within_its_bends_lift_is_not_called_a_shortening():
+    """Bending alone lifts the free end of an actuator of length L by L (1 - sin θ/θ) (a circular
+    arc): the default design, L = 5 x 16 + 6 x 0.1 + 2 x 4 = 88.6 mm, bent 120.5° lifts it by
+    88.6 (1 - sin(2.103)/2.103) = 51.9 mm and 69.1° by 19.9 mm, more than the measured 3D rises
+    (+31.1, +5.7 mm): the bend outruns the lengthening. A rise beyond the lift (PL 7, 20°: lift
+    2.4 mm, rise 3 mm, in the other test) is a chamber that shortens."""
     two = Table([row("temperature", "stimulus.temperature", 275.0, 63.5, -48.4, -6.0),
                  row("temperature", "stimulus.temperature", 295.0, 26.6, -14.6, -9.4)])
     three = Table([row("temperature", "stimulus.temperature", 275.0, 120.5, -72.5, 31.1),
                    row("temperature", "stimulus.temperature", 295.0, 69.1, -52.8, 5.7)])
     by = {p.label: p.change for p in pcompare.compare_points(three, two, BASE_3D)}
     curled = by["base: T 275 K, PL 5, h 8 mm"]
-    assert "the 3D actuator bends past 90°, so its tip rises (δz > 0) where the 2D one's stays below" in curled
+    assert "the 3D tip rises (δz > 0): bent by 120°, an arc of the actuator's length lifts its end by 52 mm" in curled
     assert "shortens" not in curled
-    assert "the 3D chamber shortens (tip up) where the 2D one bends down" in by["T = 295 K"]
+    assert "bent by 69°, an arc of the actuator's length lifts its end by 20 mm" in by["T = 295 K"]
 
 
 def test_comparison_lines_table_and_without_2d():

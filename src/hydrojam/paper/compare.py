@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+
+import numpy as np
 from pathlib import Path
 
 from hydrojam._io import read_toml
@@ -108,6 +110,16 @@ def _point(r: dict, base: Design) -> tuple:
     return tuple(None if v is None else round(v, 9) for v in values)
 
 
+def _length(base: Design, point: tuple) -> float | None:
+    """The actuator length L [mm] of the point's design (the base design with its swept values)."""
+    layers = dict(zip(_BASE, point)).get("particle_layers")
+    try:
+        update = {} if layers is None else {"particle_layers": int(layers)}
+        return float(base.model_copy(update=update).length)
+    except (ValueError, TypeError):
+        return None
+
+
 def _label(sweep, point: tuple) -> str:
     values = dict(zip(_BASE, point))
     if all(values[f] == v for f, v in _BASE.items()):
@@ -119,17 +131,25 @@ def _usable(r: dict | None) -> bool:
     return r is not None and point_status(r) != "failed" and number(r.get("bending_angle_deg")) is not None
 
 
-def _tip_up(up: str, down: str, theta: float) -> str:
-    """Why the ``up`` model's tip rises (δz > 0) where the ``down`` one's falls: a bend past 90°
-    (|θ| [deg] > 90) curls the free end up; a smaller bend with the tip up is a chamber that shortens."""
-    if abs(theta) > 90.0:
-        return f"the {up} actuator bends past 90°, so its tip rises (δz > 0) where the {down} one's stays below the clamp"
+def _tip_up(up: str, down: str, theta: float, dz: float, length: float | None) -> str:
+    """Why the ``up`` model's tip rises (δz [mm] > 0) where the ``down`` one's falls. Bending
+    alone lifts the free end of an actuator of length L [mm] bent by θ [deg] into a circular arc
+    by L (1 - sin θ / θ); a rise within that lift is the bend outrunning the chamber's
+    lengthening, a rise beyond it a chamber that shortens."""
+    if length is not None and theta:
+        rad = np.radians(abs(theta))
+        lift = length * (1.0 - np.sin(rad) / rad)
+        if dz <= lift:
+            return (f"the {up} tip rises (δz > 0): bent by {abs(theta):.0f}°, an arc of the actuator's length "
+                    f"lifts its end by {lift:.0f} mm, more than the {up} chamber lengthens, where the {down} "
+                    "chamber lengthens more than its bend lifts it")
     return f"the {up} chamber shortens (tip up) where the {down} one bends down"
 
 
 def _change(r2: dict | None, r3: dict | None, temperature: float | None,
-            stretches: tuple[float, float] | None) -> str:
-    """What changes from 2D to 3D at one point and why (a hypothesis), in words."""
+            stretches: tuple[float, float] | None, length: float | None = None) -> str:
+    """What changes from 2D to 3D at one point and why (a hypothesis), in words; ``length``: the
+    point's actuator length L [mm] (None: unknown)."""
     if r3 is None:
         return "not run in 3D"
     if r2 is None:
@@ -161,9 +181,9 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
     z2, z3 = number(r2.get("tip_dz_mm")), number(r3.get("tip_dz_mm"))
     if z2 is not None and z3 is not None and scale >= STRAIGHT_DEG:
         if z2 > 0 > z3:
-            text += "; " + _tip_up("2D", "3D", t2)
+            text += "; " + _tip_up("2D", "3D", t2, z2, length)
         elif z3 > 0 > z2:
-            text += "; " + _tip_up("3D", "2D", t3)
+            text += "; " + _tip_up("3D", "2D", t3, z3, length)
     late = [dim for r, dim in ((r2, "2D"), (r3, "3D")) if point_status(r) == "not_converged"]
     if late:
         text += f" ({' and '.join(late)} not converged: an intermediate state)"
@@ -198,7 +218,7 @@ def compare_points(table_3d, table_2d, base: Design) -> list[PointComparison]:
                 except (ValueError, ArithmeticError):  # no equilibrium: the text does without
                     stretch_at[T] = None
             st = stretch_at.get(T)
-            out.append(PointComparison(_label(sw, point), T, r2, r3, st, _change(r2, r3, T, st)))
+            out.append(PointComparison(_label(sw, point), T, r2, r3, st, _change(r2, r3, T, st, _length(base, point))))
     return out
 
 
