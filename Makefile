@@ -19,7 +19,7 @@ demo: $(STAMP)
 	$(BIN)/hydrojam swell --t-min 275 --t-max 315 --t-step 2.5 --plot $(DEMO_OUT)/swelling.png
 	$(BIN)/hydrojam reproduce --quick --sweep temperature --sweep strain_limit_thickness -o $(DEMO_OUT)/reproduce
 	@echo "report: $(DEMO_OUT)/reproduce/report.md (figures in $(DEMO_OUT)/reproduce/figures/)"
-	@echo "the particle-layer sweep (about 4 more minutes on 2 cores): $(BIN)/hydrojam reproduce --quick -o $(DEMO_OUT)/reproduce"
+	@echo "the particle-layer sweep (5-10 more minutes on 2 cores): $(BIN)/hydrojam reproduce --quick -o $(DEMO_OUT)/reproduce"
 
 # -n auto: one pytest worker per CPU (the slow contact tests then run side by side)
 test: $(STAMP)
