@@ -11,10 +11,9 @@ a plane-strain cylinder at the point's temperature computed from the design's ge
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
-
-import numpy as np
 from pathlib import Path
 
 from hydrojam._io import read_toml
@@ -110,14 +109,11 @@ def _point(r: dict, base: Design) -> tuple:
     return tuple(None if v is None else round(v, 9) for v in values)
 
 
-def _length(base: Design, point: tuple) -> float | None:
+def _length(base: Design, point: tuple) -> float:
     """The actuator length L [mm] of the point's design (the base design with its swept values)."""
     layers = dict(zip(_BASE, point)).get("particle_layers")
-    try:
-        update = {} if layers is None else {"particle_layers": int(layers)}
-        return float(base.model_copy(update=update).length)
-    except (ValueError, TypeError):
-        return None
+    update = {} if layers is None else {"particle_layers": int(layers)}
+    return float(base.model_copy(update=update).length)
 
 
 def _label(sweep, point: tuple) -> str:
@@ -137,8 +133,8 @@ def _tip_up(up: str, down: str, theta: float, dz: float, length: float | None) -
     by L (1 - sin θ / θ); a rise within that lift is the bend outrunning the chamber's
     lengthening, a rise beyond it a chamber that shortens."""
     if length is not None and theta:
-        rad = np.radians(abs(theta))
-        lift = length * (1.0 - np.sin(rad) / rad)
+        rad = math.radians(abs(theta))
+        lift = length * (1.0 - math.sin(rad) / rad)
         if dz <= lift:
             return (f"the {up} tip rises (δz > 0): bent by {abs(theta):.0f}°, an arc of the actuator's length "
                     f"lifts its end by {lift:.0f} mm, more than the {up} chamber lengthens, where the {down} "
