@@ -214,10 +214,11 @@ def init(
 @app.command("run")
 def run_design(
     design_file: Path = typer.Argument(..., help="Design file (TOML), e.g. from `hydrojam init`."),
-    out: Path = typer.Option(..., "-o", "--out", help="Output folder (created; earlier results in it are replaced)."),
+    out: Path = typer.Option(..., "-o", "--out", help="Output folder (created; earlier results in it are replaced, but a run of the same design stopped midway goes on from its checkpoint)."),
     overrides: list[str] = typer.Option([], "--set", help="Change a field, e.g. --set stimulus.temperature=295 (repeatable)."),
     dimension: Optional[int] = typer.Option(None, "--dimension", help="2 (plane strain) or 3 (spheres; the half model unless --set mesh.symmetry=false); same as --set dimension=N."),
     vtu: bool = typer.Option(True, "--vtu/--no-vtu", help="Write a VTU file per load step and the .pvd index."),
+    fresh: bool = typer.Option(False, "--fresh", help="Start from s = 0 even where OUT holds a checkpoint of this design."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     replicas: Optional[int] = typer.Option(None, "--replicas", help="Run N replicas in parallel (jittered particle centres, see docs/replicas.md); default: the design's replicas.count."),
     workers: Optional[int] = typer.Option(None, "--workers", help="With replicas: local worker processes, one thread each (default: one per CPU)."),
@@ -234,6 +235,10 @@ def run_design(
     resumable: OUT gets points/<key>/ per replica (final.vtu), replicas.csv, and summary.csv and
     summary.json (mean, standard deviation, min, max of every metric, and which replica gave which);
     exit status 1 when a replica failed or stopped early.
+
+    A run keeps OUT/checkpoint.npz, rewritten after every accepted load step and every round of
+    the release, and removed when it ends. Run the same design into the same OUT again and it goes
+    on from there (--fresh: from s = 0).
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -261,14 +266,20 @@ def run_design(
     console = Console(stderr=True)
     model = build_model(design)
     writer = ResultWriter(out, model, vtu=vtu)
-    writer.start()
+    ck = writer.start(resume=not fresh)
+    if writer.discarded and not quiet:
+        console.print(f"[yellow]hydrojam: starting from s = 0: the checkpoint cannot be resumed: {writer.discarded}[/yellow]")
+    if ck is not None and not quiet:
+        last = ck.states[-1]
+        where = "in the release at s = 1" if ck.release is not None else f"at s = {last['s']:.4g} (state {last['index']})"
+        console.print(f"hydrojam: going on from the checkpoint in {out} {where}")
     columns = [TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("s = {task.completed:.3f}"),
                TextColumn("{task.fields[info]}"), TimeElapsedColumn()]
     with Progress(*columns, console=console, disable=quiet, transient=False) as progress:
         schedule = design.stimulus.schedule
         label = (f"T -> {design.stimulus.temperature:g} K" if schedule is None
                  else f"schedule to t = {schedule[-1][0]:g} s")
-        task = progress.add_task(label, total=1.0, info="")
+        task = progress.add_task(label, total=1.0, info="", completed=0.0 if ck is None else ck.states[-1]["s"])
 
         seen = set()
 
@@ -283,7 +294,7 @@ def run_design(
                 seen.add(state.index)
             progress.update(task, completed=state.s, info=info)
 
-        result = simulate(model, on_step=on_step)
+        result = simulate(model, on_step=on_step, checkpoint=writer.checkpoint_path, resume=ck)
     metrics = writer.finish(result)
     if not quiet:
         console.print(_run_summary(f"hydrojam run: {design_file.name} -> {out}", metrics))

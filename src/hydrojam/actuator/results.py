@@ -13,6 +13,8 @@ Layout of an output folder ``OUT``::
     final.png         deformed actuator over the undeformed outline
     angle_time.png    with stimulus.schedule only: bending angle, free-end displacement and
                       temperature against time
+    checkpoint.npz    while the run goes: its state after the last accepted step, to go on
+                      from (:mod:`hydrojam.actuator.checkpoint`); removed by :meth:`ResultWriter.finish`
 
 VTU fields: point data ``displacement`` [mm]; cell data ``body_id`` (0 membrane, 1 strain-limit
 layer, 2 + k particle k), ``swelling_ratio`` (gel volume over dry-network volume, J = lambda0^3
@@ -37,6 +39,7 @@ import meshio
 import numpy as np
 
 from hydrojam._io import atomic_path, finite_or_none, make_folder, write_text_atomic
+from hydrojam.actuator.checkpoint import CHECKPOINT, CheckpointError, RunCheckpoint, load_checkpoint
 from hydrojam.actuator.design import write_design
 from hydrojam.actuator.fields import cell_fields
 from hydrojam.actuator.metrics import HISTORY_FIELDS, STATE_METRICS, centreline_profile, metric_names
@@ -154,18 +157,60 @@ class ResultWriter:
         self.vtu = vtu
         self.rows: list[dict] = []
         self.entries: list[tuple[float, str]] = []
+        self.discarded: str | None = None
+        """Why :meth:`start` did not resume the folder's checkpoint (None: it did, or there was none)."""
 
-    def start(self) -> None:
+    @property
+    def checkpoint_path(self) -> Path:
+        """The run's checkpoint file (:mod:`hydrojam.actuator.checkpoint`): pass it to
+        :func:`~hydrojam.actuator.simulate.simulate`; :meth:`finish` removes it."""
+        return self.out / CHECKPOINT
+
+    def start(self, resume: bool = False) -> RunCheckpoint | None:
+        """Make the folder and write the resolved design; clear the files of an earlier run.
+
+        ``resume``: where the folder holds a checkpoint of this design, keep the files of its
+        accepted states (history.csv and the step files rewritten to match it) and return it,
+        for :func:`~hydrojam.actuator.simulate.simulate`'s ``resume``; otherwise (none, or one
+        that cannot be resumed: :attr:`discarded` says why) start afresh and return None."""
         self.rows.clear()
         self.entries.clear()
+        self.discarded = None
         make_folder(self.out)
+        ck = None
+        if resume:
+            try:
+                ck = load_checkpoint(self.checkpoint_path, self.model.design, self.model.mesh.points.shape)
+            except FileNotFoundError:
+                pass
+            except CheckpointError as err:
+                self.discarded = str(err)
         write_design(self.out / "design.toml", self.model.design)
+        keep = set()
+        if ck is not None:
+            states = [StepState(**st, x=x) for st, x in zip(ck.states, ck.xs)]
+            for st in states:
+                self.rows.append(history_row(st))
+                if self.vtu:
+                    rel = f"steps/step_{st.index:04d}.vtu"
+                    if not (self.out / rel).is_file():
+                        write_vtu(self.out / rel, self.model, st)
+                    keep.add(rel)
+                    self.entries.append((st.s if st.time_s is None else st.time_s, rel))
         steps = self.out / "steps"
         if steps.is_dir():
             for old in steps.glob("step_*.vtu"):
-                old.unlink()
+                if f"steps/{old.name}" not in keep:
+                    old.unlink()
         for name in ("metrics.json", "final.png", "angle_time.png", "centreline.csv", "results.pvd", "history.csv"):
             (self.out / name).unlink(missing_ok=True)
+        if ck is None:
+            self.checkpoint_path.unlink(missing_ok=True)
+        else:
+            write_text_atomic(self.out / "history.csv", _csv(self.rows, HISTORY_COLUMNS))
+            if self.vtu:
+                write_text_atomic(self.out / "results.pvd", pvd_text(self.entries))
+        return ck
 
     def step(self, state: StepState) -> None:
         """Write one accepted state; a state with the index of the last one replaces it (the
@@ -201,7 +246,10 @@ class ResultWriter:
             plot_actuator(model, final, self.out / "final.png")
             if getattr(model.path, "timed", False):
                 plot_angle_time(result.states, model.path.schedule, self.out / "angle_time.png")
+        if result.resumed:
+            metrics["provenance"]["resumed"] = [finite_or_none(r) for r in result.resumed]
         write_text_atomic(self.out / "metrics.json", json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+        self.checkpoint_path.unlink(missing_ok=True)
         return metrics
 
 

@@ -8,6 +8,7 @@ s = 1 was reached (if not, why, with the last converged state kept) and where th
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -15,12 +16,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hydrojam._io import finite_or_none
+from hydrojam.actuator.checkpoint import ReleaseCheckpoint, RunCheckpoint, design_digest, save_checkpoint
 from hydrojam.actuator.metrics import RUN_FIELDS, branch_gap, time_to_fraction
 from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
 from hydrojam.actuator.stimulus import schedule_temperature
 from hydrojam.fem.linsolve import LinearSolver
 from hydrojam.fem.newton import NewtonOptions, minimize, negative_curvature
-from hydrojam.fem.path import PathOptions, first_unstable_s, solve_path
+from hydrojam.fem.path import PathCheckpoint, PathOptions, first_unstable_s, solve_path
 from hydrojam.fem.terms import TimedTerm, ViscousStabilisation, by_name, lumped_volumes
 
 #: viscous stabilisation c = STABILISATION x G_membrane / d [N/mm^3] (docs/actuator.md)
@@ -99,6 +101,9 @@ class SimulationResult:
     rejected_steps: int
     timings: dict = field(default_factory=dict)
     stabilisation: dict = field(default_factory=dict)
+    resumed: tuple = ()
+    """One record per resumption from a checkpoint (``s`` and ``state`` it went on from, the
+    ``version`` of hydrojam that went on); empty for a run in one go."""
 
     @property
     def final(self) -> StepState:
@@ -177,6 +182,8 @@ def simulate(
     on_progress: Callable[[float], None] | None = None,
     stabilisation: float = STABILISATION,
     extra_terms: tuple = (),
+    checkpoint: str | os.PathLike | None = None,
+    resume: RunCheckpoint | None = None,
 ) -> SimulationResult:
     """Follow the stimulus from the as-prepared state (s = 0) to the target (s = 1).
 
@@ -192,14 +199,23 @@ def simulate(
     ``extra_terms``: energy terms added to the model's (e.g. a spring that blocks the tip,
     :mod:`hydrojam.assess`), kept through the release.
 
+    ``checkpoint``: a file (:mod:`hydrojam.actuator.checkpoint`) rewritten after every accepted
+    step and every round of the release; ``resume``: a checkpoint of this model's design to go on
+    from (its states are not passed to ``on_step`` again). A resumed run is the same computation
+    but for the linear solver's analysis, done anew: its answer may differ from a run in one go
+    by the design's round-off spread.
+
     With ``stimulus.schedule`` in the design the path is time-resolved (built by
     :func:`~hydrojam.actuator.model.build_model`) and
     ``options`` defaults to :data:`TIMED_PATH`, otherwise to :data:`ACTUATOR_PATH`.
     """
     if options is None:
         options = TIMED_PATH if model.path.timed else ACTUATOR_PATH
-    t_start = time.perf_counter()
+    t_start = time.perf_counter() - (0.0 if resume is None else resume.elapsed_s)
     elastic, contact = _Clock(), _Clock()
+    if resume is not None:
+        elastic.seconds = float(resume.clocks.get("elastic", 0.0))
+        contact.seconds = float(resume.clocks.get("contact", 0.0))
     stab = None
     if stabilisation > 0:
         mesh = model.mesh
@@ -224,8 +240,32 @@ def simulate(
         if on_step is not None:
             on_step(st)
 
-    record(0.0, model.mesh.points, 0)
+    digest = design_digest(model.design)
+    resumed: tuple = ()
     ratio = [0.0]
+    if resume is None:
+        record(0.0, model.mesh.points, 0)
+    else:
+        from hydrojam import __version__
+
+        states.extend(StepState(**st, x=np.array(x, dtype=float)) for st, x in zip(resume.states, resume.xs))
+        ratio[0] = resume.energy_ratio
+        resumed = tuple(resume.resumed) + ({"s": states[-1].s, "state": states[-1].index, "version": __version__},)
+    path_ck: list[PathCheckpoint | None] = [None if resume is None else resume.path]
+
+    def save(release: ReleaseCheckpoint | None = None) -> None:
+        if checkpoint is None or path_ck[0] is None:
+            return
+        plain = [{f.name: getattr(st, f.name) for f in dataclasses.fields(StepState) if f.name != "x"}
+                 for st in states]
+        save_checkpoint(checkpoint, RunCheckpoint(
+            digest, tuple(plain), np.stack([st.x for st in states]), path_ck[0], release,
+            time.perf_counter() - t_start, {"elastic": elastic.seconds, "contact": contact.seconds}, ratio[0],
+            resumed))
+
+    def on_path_checkpoint(ck: PathCheckpoint) -> None:
+        path_ck[0] = ck
+        save()
 
     def callback(s, x, rec):
         if stab is not None:
@@ -239,15 +279,22 @@ def simulate(
         if on_progress is not None:
             on_progress(float(s - ds) if not res.converged else float(s))
 
-    res = solve_path(problem, options, callback=callback, on_attempt=attempt)
+    res = solve_path(problem, options, callback=callback, on_attempt=attempt,
+                     resume=None if resume is None else resume.path, on_checkpoint=on_path_checkpoint)
     if not np.all(np.isfinite(res.x)):  # pragma: no cover - the solver never accepts such a state
         raise RuntimeError("the solver returned non-finite positions")
     released = stab is None
     newton_iterations = res.newton_iterations
     release_seconds, rounds = 0.0, []
     if stab is not None and res.converged:
-        t_release = time.perf_counter()
-        x, its, released, rounds = _release(problem, stab, res.x, options, terms, res.timings)
+        before = resume.release if resume is not None else None
+        t_release = time.perf_counter() - (0.0 if before is None else before.seconds)
+
+        def on_round(ck: ReleaseCheckpoint) -> None:
+            save(dataclasses.replace(ck, seconds=time.perf_counter() - t_release))
+
+        x, its, released, rounds = _release(problem, stab, res.x, options, terms, res.timings,
+                                            resume=before, on_round=on_round)
         newton_iterations += its
         negative = states[-1].negative_eigenvalues
         if options.stability_check:  # the released state is the one reported: check it
@@ -274,11 +321,12 @@ def simulate(
                           "max_energy_ratio": ratio[0], "released": released,
                           "release_rounds": [{"scale": sc, "iterations": n, "converged": ok} for sc, n, ok in rounds]}
     return SimulationResult(model, states, res.converged, message, wall, newton_iterations,
-                            res.rejected_steps, timings, stabilisation_info)
+                            res.rejected_steps, timings, stabilisation_info, resumed)
 
 
 def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEASE_ROUNDS, first_scale: float = 1.0,
-             easy_round: int | None = None, lower: float = 10.0, direct: bool = False, after_failure: int = 20):
+             easy_round: int | None = None, lower: float = 10.0, direct: bool = False, after_failure: int = 20,
+             resume: ReleaseCheckpoint | None = None, on_round: Callable[[ReleaseCheckpoint], None] | None = None):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
     on the last state (and lagged friction frozen there, as at a load step's start), again and
     again, the damping (``first_scale`` x the path's at first) lowered ``lower``x after every
@@ -290,11 +338,19 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
     physics alone, so the state is an equilibrium once that force is below the solver's
     tolerance (rtol x the forces in play). Returns (x, Newton iterations, released, rounds): x
     the last converged round's state, released False if the rounds ran out (or the damping had
-    to exceed 1000x) first, rounds a list of (damping scale, Newton iterations, converged)."""
+    to exceed 1000x) first, rounds a list of (damping scale, Newton iterations, converged).
+    ``on_round(checkpoint)`` after every round (not the direct attempt) with what it takes to go
+    on from there; ``resume``: such a checkpoint to go on from (``x`` and ``first_scale`` unused)."""
     free = problem.free_mask()
     rtol = options.newton.rtol
     solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: PARDISO's set-up costs 0.4 s
     its, scale, rounds, failed = 0, first_scale * stab.scale, [], False
+    if resume is not None:
+        x, its, scale, failed, rounds = np.array(resume.x, dtype=float), resume.iterations, resume.scale, \
+            resume.failed, list(resume.rounds)
+        solver.restore_pattern(resume.solver_pattern)
+        direct = False
+    start = len(rounds)
     if direct:
         stab.scale = 0.0
         res = minimize(terms(1.0), x, free, problem.force_scale, options.newton, solver)
@@ -303,7 +359,13 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
         rounds.append((0.0, res.iterations, res.converged))
         if res.converged:
             return res.x, its, True, rounds
-    for _ in range(max_rounds):
+
+    def done_round() -> None:
+        if on_round is not None:
+            on_round(ReleaseCheckpoint(np.array(x, dtype=float), its, scale, failed, tuple(rounds), 0.0,
+                                       solver.pattern))
+
+    for _ in range(max_rounds - start):
         stab.scale = scale
         ts = terms(1.0)
         for t in ts:  # each round is a step: the damping centred and friction frozen at its start
@@ -317,6 +379,7 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
                 break
             scale *= 10.0
             failed = True
+            done_round()
             continue
         x = res.x
         viscous = float(np.linalg.norm(stab.gradient(x)[free]))
@@ -329,4 +392,5 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
         if limit is None or res.iterations <= limit:
             scale = max(scale / lower, 1e-8)
             failed = False
+        done_round()
     return x, its, False, rounds

@@ -278,6 +278,20 @@ class LinearSolver:
         data[g.dst] = K.data[g.src]
         return u, data
 
+    @property
+    def pattern(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The union pattern that the next solve builds on (0-based CSR ``indptr``, ``indices``
+        of the upper triangle), or None: with :meth:`restore_pattern`, a new solver goes on as
+        this one would have (the same patterns, hence the same orderings and round-off)."""
+        if self._union is None:
+            return None
+        return (self._union.ia - 1).astype(np.int64), (self._union.ja - 1).astype(np.int64)
+
+    def restore_pattern(self, pattern: tuple[np.ndarray, np.ndarray] | None) -> None:
+        """Start from ``pattern`` (another solver's :attr:`pattern`) as the union pattern."""
+        self._gathers = []
+        self._union = None if pattern is None else _UpperPattern(np.asarray(pattern[0]), np.asarray(pattern[1]))
+
     def solve(self, K: sp.spmatrix, b: np.ndarray) -> np.ndarray:
         """Solution u of K u = b; raises LinearSolveError if K is singular (the factorisation
         fails) or u is not finite. Anything else (a wrong shape, a bug) propagates as it is."""

@@ -98,6 +98,25 @@ class PathResult:
         return first_unstable_s(self.history)
 
 
+@dataclass(frozen=True)
+class PathCheckpoint:
+    """Everything :func:`solve_path` needs to go on from an accepted state as if it had not
+    stopped: positions x (flat) [mm], load parameter s, the next increment ds, the damped term's
+    scale relative to its start (``damping``), the accepted steps so far, the rejected attempts
+    and the time spent."""
+
+    x: np.ndarray
+    s: float
+    ds: float
+    damping: float
+    history: tuple[StepRecord, ...]
+    rejected: int
+    timings: Timings
+    solver_pattern: tuple[np.ndarray, np.ndarray] | None = None
+    """The linear solver's union pattern (:attr:`~hydrojam.fem.linsolve.LinearSolver.pattern`):
+    restored, the resumed path sees the same matrices' patterns, hence the same round-off."""
+
+
 def first_unstable_s(history) -> float | None:
     """The ``s`` of the first record in ``history`` (:class:`StepRecord`-like: ``s``,
     ``negative_eigenvalues``) with a negative eigenvalue; None if there is none."""
@@ -141,6 +160,8 @@ def solve_path(
     options: PathOptions = PathOptions(),
     callback: Callable[[float, np.ndarray, StepRecord], None] | None = None,
     on_attempt: Callable[[float, float, NewtonResult], None] | None = None,
+    resume: PathCheckpoint | None = None,
+    on_checkpoint: Callable[[PathCheckpoint], None] | None = None,
 ) -> PathResult:
     """Follow s from 0 to 1 in adaptive increments, each an energy minimisation, from the
     reference positions.
@@ -154,6 +175,10 @@ def solve_path(
     eigenvalues (:attr:`StepRecord.negative_eigenvalues`, :attr:`PathResult.unstable_at_s`).
     A term named ``options.damped_term`` with a ``scale`` (a viscous stabilisation) is damped
     adaptively (:attr:`PathOptions.damping_growth`); its scale is left where the path ended.
+
+    ``on_checkpoint(checkpoint)`` runs after every accepted step (after ``callback``) with what
+    it takes to go on from there; ``resume``: such a checkpoint, from which the path goes on
+    (the equilibration at s = 0 skipped) instead of starting from the reference positions.
     """
     solver = LinearSolver(options.newton.linear_solver)
     # the stability check's own solver: its matrices never touch the Newton solver's pattern
@@ -168,20 +193,29 @@ def solve_path(
     # equilibrate at s = 0 first (a no-op for a stress-free reference)
     s, ds, rejected = 0.0, options.ds0, 0
     terms0 = problem.terms(0.0)
-    for t in terms0:  # nothing lagged (friction) survives from an earlier path on the same terms
-        t.begin_step(x.reshape(shape))
-    res0 = minimize(terms0, x.reshape(shape), free, problem.force_scale, options.newton, solver)
-    tm.add(res0.timings)
-    if not res0.converged:
-        msg = f"could not equilibrate the initial state (s = 0): {res0.message}"
-        return PathResult(x.reshape(shape), 0.0, False, msg, history, tm, 0)
-    x = res0.x.ravel().copy()
-    message = "converged"
-    newton, last_resort = options.newton, False
     damped = next((t for t in terms0 if t.name == options.damped_term), None)
     base = getattr(damped, "scale", None)
     if not base:  # no such term, or one switched off: nothing to adapt
         damped = None
+    if resume is None:
+        for t in terms0:  # nothing lagged (friction) survives from an earlier path on the same terms
+            t.begin_step(x.reshape(shape))
+        res0 = minimize(terms0, x.reshape(shape), free, problem.force_scale, options.newton, solver)
+        tm.add(res0.timings)
+        if not res0.converged:
+            msg = f"could not equilibrate the initial state (s = 0): {res0.message}"
+            return PathResult(x.reshape(shape), 0.0, False, msg, history, tm, 0)
+        x = res0.x.ravel().copy()
+    else:
+        x = np.asarray(resume.x, dtype=float).ravel().copy()
+        s, ds, rejected = float(resume.s), float(resume.ds), int(resume.rejected)
+        history.extend(resume.history)
+        tm.add(resume.timings)
+        solver.restore_pattern(resume.solver_pattern)
+        if damped is not None:
+            damped.scale = base * resume.damping
+    message = "converged"
+    newton, last_resort = options.newton, False
     while s < 1.0 - options.end_tolerance:
         ds = min(ds, 1.0 - s)
         s_try = s + ds
@@ -217,6 +251,9 @@ def solve_path(
                 ds = min(ds * options.grow, options.ds_max)
                 if damped is not None and damped.scale > base:
                     damped.scale = max(damped.scale / options.damping_growth, base)
+            if on_checkpoint is not None:
+                on_checkpoint(PathCheckpoint(x.copy(), s, ds, 1.0 if damped is None else damped.scale / base,
+                                             tuple(history), rejected, dataclasses.replace(tm), solver.pattern))
         else:
             rejected += 1
             if (damped is not None and res.status is not NewtonStatus.INADMISSIBLE_START and options.damping_growth > 1

@@ -99,15 +99,16 @@ class SchedulerError(ConnectionError):
 
 def run_point(design: Design, point_dir: Path) -> dict:
     """Simulate one design into ``point_dir`` (the files of ``hydrojam run --no-vtu`` plus
-    ``final.vtu``); returns the metrics written to metrics.json. Raises what the run raises."""
+    ``final.vtu``), going on from the folder's checkpoint where it holds one of this design;
+    returns the metrics written to metrics.json. Raises what the run raises."""
     from hydrojam.actuator.model import build_model
     from hydrojam.actuator.results import ResultWriter, write_vtu
     from hydrojam.actuator.simulate import simulate
 
     model = build_model(design)
     writer = ResultWriter(point_dir, model, vtu=False)
-    writer.start()
-    result = simulate(model, on_step=writer.step)
+    ck = writer.start(resume=True)
+    result = simulate(model, on_step=writer.step, checkpoint=writer.checkpoint_path, resume=ck)
     metrics = writer.finish(result)
     write_vtu(Path(point_dir) / "final.vtu", model, result.final)
     return metrics
@@ -130,12 +131,18 @@ def _record(key: str, status: str, error: str | None, metrics: dict | None, wall
 
 
 def _execute(point_fn: Callable[[Design, Path], dict], design: Design, point_dir: str, key: str) -> dict:
-    """Worker side: clear the point's folder, run ``point_fn``, write point.json last; never raises
-    for the point's own failure (recorded as status "failed" with error.txt)."""
+    """Worker side: clear the point's folder (but a run's checkpoint, which the run resumes), run
+    ``point_fn``, write point.json last; never raises for the point's own failure (recorded as
+    status "failed" with error.txt)."""
+    from hydrojam.actuator.checkpoint import CHECKPOINT
+
     folder = Path(point_dir)
-    if folder.exists():
+    if (folder / CHECKPOINT).is_file():
+        for name in ("point.json", "error.txt", "final.vtu"):
+            (folder / name).unlink(missing_ok=True)
+    elif folder.exists():
         shutil.rmtree(folder)
-    folder.mkdir(parents=True)
+    folder.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     try:
         metrics = point_fn(design, folder)
