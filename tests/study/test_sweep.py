@@ -389,3 +389,52 @@ def test_table_files_get_the_users_permissions(scheduler, tmp_path):
         os.umask(old)
     for name in ("study.toml", "results.csv", "results.parquet"):
         assert stat.S_IMODE((tmp_path / "out" / name).stat().st_mode) == 0o640, name
+
+
+
+class _Stop(Exception):
+    """Stands for a crash inside a point's run."""
+
+
+def stops_after_state_3(design, point_dir):
+    """The real run of a point, stopped by an exception once state 3 is written (before its
+    checkpoint): what a crash midway leaves."""
+    from hydrojam.actuator.model import build_model
+    from hydrojam.actuator.results import ResultWriter
+    from hydrojam.actuator.simulate import simulate
+
+    model = build_model(design)
+    writer = ResultWriter(point_dir, model, vtu=False)
+    writer.start()
+
+    def on_step(state):
+        writer.step(state)
+        if state.index == 3:
+            raise _Stop("stopped after state 3")
+
+    simulate(model, on_step=on_step, checkpoint=writer.checkpoint_path)
+    raise AssertionError("not stopped")
+
+
+def test_a_point_stopped_midway_goes_on_from_its_checkpoint(scheduler, tmp_path):
+    """A point that stopped midway (recorded failed; its folder keeps history.csv and
+    checkpoint.npz) is not started over by the rerun: it goes on from the checkpoint and ends where
+    a run in one go ends (the same Newton iterations and angle: the same computation,
+    docs/actuator.md "Checkpoints"). Every run here is in a worker: the same thread settings."""
+    from hydrojam.actuator.checkpoint import CHECKPOINT
+
+    study = study_from_dict({"name": "tiny", "design": {"particle_layers": 1, "mesh": {"size": 4.0}},
+                             "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [295]}}]})
+    (stopped,) = run_sweep(study, tmp_path / "out", scheduler=scheduler, point_fn=stops_after_state_3).rows
+    assert stopped["status"] == "failed" and "stopped after state 3" in stopped["error"]
+    folder = tmp_path / "out" / stopped["point_dir"]
+    assert (folder / CHECKPOINT).is_file()
+
+    (row,) = run_sweep(study, tmp_path / "out", scheduler=scheduler).rows
+    (one_go,) = run_sweep(study, tmp_path / "one_go", scheduler=scheduler).rows
+    assert row["status"] == one_go["status"] == "ok", row
+    metrics = json.loads((folder / "metrics.json").read_text())
+    assert [r["state"] for r in metrics["provenance"]["resumed"]] == [2]
+    assert not (folder / "error.txt").exists() and not (folder / CHECKPOINT).exists()
+    assert row["newton_iterations"] == one_go["newton_iterations"]
+    assert row["bending_angle_deg"] == one_go["bending_angle_deg"]
