@@ -335,8 +335,9 @@ def _run_replicas(design, design_file: Path, out: Path, workers, scheduler, quie
 
     summary = []
 
-    def run_points(on_point):
-        table, s = run_replicas(design, out, workers=workers, scheduler=scheduler, on_point=on_point)
+    def run_points(on_point, on_running):
+        table, s = run_replicas(design, out, workers=workers, scheduler=scheduler, on_point=on_point,
+                                on_running=on_running)
         summary.append(s)
         return table
 
@@ -443,16 +444,33 @@ def sweep(
             study = study.with_replicas(replicas)
         except DesignError as err:
             raise InputError(f"--replicas: {err}") from None
-    _run_with_progress(lambda on_point: run_sweep(study, out, workers=workers, scheduler=scheduler,
-                                                  on_point=on_point), out, quiet)
+    _run_with_progress(lambda on_point, on_running: run_sweep(study, out, workers=workers, scheduler=scheduler,
+                                                              on_point=on_point, on_running=on_running), out, quiet)
+
+
+#: seconds between two lines on the running points where stderr is not a terminal (a log file)
+RUNNING_LOG_INTERVAL_S = 600.0
+
+
+def _running_text(running) -> str:
+    """The running points in a few words: label, s reached and run time."""
+    return "; ".join(f"{_point_label(r)}: s = {r.s:.3f} after {_duration_text(r.wall_time_s)}" for r in running)
+
+
+def _duration_text(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else (f"{seconds / 60:.1f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h")
 
 
 def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False, after=None) -> None:
-    """Run ``run_points(on_point)`` (a sweep) under a progress bar over points, print the summary
-    (then call ``after()``) and exit 1 when a point failed or stopped early."""
+    """Run ``run_points(on_point, on_running)`` (a sweep) under a progress bar over points, with
+    the running points' progress (the load parameter s reached), print the summary (then call
+    ``after()``) and exit 1 when a point failed or stopped early. Where stderr is not a terminal
+    (a log file), a line per finished point and the running points every 10 minutes instead."""
+    import threading
     import time
 
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.text import Text
 
     from hydrojam.actuator.design import DesignError
     from hydrojam.study.sweep import SchedulerError
@@ -463,13 +481,31 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
     t0 = time.perf_counter()
     columns = [TextColumn("[bold]points"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[info]}"),
                TimeElapsedColumn()]
+    log = not console.is_terminal
     # started at the first point: a refused --scheduler leaves no progress bar behind
-    progress = Progress(*columns, console=console, disable=quiet, transient=False)
+    progress = Progress(*columns, console=console, disable=quiet or log, transient=False)
     task = progress.add_task("points", total=None, info="")
+    last_info, logged = [""], [time.perf_counter()]
+    started_lock = threading.Lock()
+
+    def on_running(running):
+        text = _running_text(running)
+        if quiet:
+            return
+        if log:
+            if running and time.perf_counter() - logged[0] >= RUNNING_LOG_INTERVAL_S:
+                logged[0] = time.perf_counter()
+                console.print(f"{time.strftime('%H:%M:%S')} running: {text}", soft_wrap=True, highlight=False)
+        else:
+            with started_lock:
+                if not progress.live.is_started:
+                    progress.start()
+            progress.update(task, info=last_info[0] + (f" | running: {text}" if text else ""))
 
     def on_point(outcome, done, total):
-        if done == 1:
-            progress.start()
+        with started_lock:
+            if not progress.live.is_started:
+                progress.start()
         counts[outcome.status] = counts.get(outcome.status, 0) + 1
         cached[0] += outcome.cached
         if outcome.status == "failed":
@@ -479,10 +515,18 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
             info = _point_label(outcome) + (f": {angle:.1f} deg" if isinstance(angle, (int, float)) else "")
             if outcome.status == "not_converged":
                 info = f"[yellow]{info} (stopped early)[/yellow]"
-        progress.update(task, completed=done, total=total, info=info + (" (cached)" if outcome.cached else ""))
+        info += " (cached)" if outcome.cached else ""
+        last_info[0] = info
+        progress.update(task, completed=done, total=total, info=info)
+        if log and not quiet and not outcome.cached:
+            wall = outcome.wall_time_s
+            took = f" after {_duration_text(wall)}" if isinstance(wall, (int, float)) else ""
+            plain = Text.from_markup(info).plain
+            console.print(f"{time.strftime('%H:%M:%S')} point {done}/{total} {outcome.status}{took}: {plain}",
+                          soft_wrap=True, highlight=False, markup=False)
 
     try:
-        result = run_points(on_point)
+        result = run_points(on_point, on_running)
     except SchedulerError as err:
         raise InputError(f"--scheduler: {err}") from None
     except DesignError as err:
@@ -558,9 +602,10 @@ def reproduce(
             read_2d_results(compare_2d, quick)
         except CompareError as err:
             raise InputError(f"--compare-2d: {err}") from None
-    _run_with_progress(lambda on_point: run_reproduce(out, quick=quick, workers=workers, scheduler=scheduler,
-                                                      sweeps=sweep or None, on_point=on_point, replicas=replicas,
-                                                      dimension=dimension, compare_2d=compare_2d),
+    _run_with_progress(lambda on_point, on_running: run_reproduce(
+                           out, quick=quick, workers=workers, scheduler=scheduler, sweeps=sweep or None,
+                           on_point=on_point, replicas=replicas, dimension=dimension, compare_2d=compare_2d,
+                           on_running=on_running),
                        out, quiet, report=True)
 
 

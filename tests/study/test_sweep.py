@@ -4,6 +4,7 @@ table (CSV and Parquet), a real simulation through a scheduler, and `hydrojam sw
 import json
 import logging
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -438,3 +439,60 @@ def test_a_point_stopped_midway_goes_on_from_its_checkpoint(scheduler, tmp_path)
     assert not (folder / "error.txt").exists() and not (folder / CHECKPOINT).exists()
     assert row["newton_iterations"] == one_go["newton_iterations"]
     assert row["bending_angle_deg"] == one_go["bending_angle_deg"]
+
+
+def reports_half_way(design, point_dir):
+    """A point that has an accepted state at s = 0.5 for a while (history.csv as a run writes it)."""
+    time.sleep(0.8)  # the folder's old history.csv (if any) is not this run's
+    (point_dir / "history.csv").write_text("step,s,wall_time_s\n0,0.0,0.1\n1,0.5,42.0\n")
+    time.sleep(1.2)
+    return cheap(design, point_dir)
+
+
+def test_running_points_are_reported_with_the_s_they_reached(scheduler, tmp_path):
+    """on_running sees each computed point at the s of its last accepted state, never a point
+    with a history older than the call (a stopped run's, not yet going on) or a finished one."""
+    from hydrojam.actuator.checkpoint import CHECKPOINT
+    from hydrojam.study.sweep import point_progress
+
+    study = study_from_dict({"name": "two", "design": {"particle_layers": 1, "mesh": {"size": 4.0}},
+                             "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [285, 295]}}]})
+    keys = [p.key for p in study.points()]
+    stale = tmp_path / "out" / "points" / keys[0]
+    stale.mkdir(parents=True)
+    (stale / CHECKPOINT).write_bytes(b"kept: the point goes on from it")
+    (stale / "history.csv").write_text("step,s,wall_time_s\n0,0.0,0.1\n1,0.25,10.0\n")
+    os.utime(stale / "history.csv", (time.time() - 60, time.time() - 60))
+    assert point_progress(stale) == (0.25, 10.0) and point_progress(tmp_path) is None
+
+    seen = []
+    table = run_sweep(study, tmp_path / "out", scheduler=scheduler, point_fn=reports_half_way,
+                      on_running=seen.append, progress_interval_s=0.2)
+    assert [r["status"] for r in table.rows] == ["ok", "ok"]
+    reported = [(r.points[0].key, r.s, r.wall_time_s) for batch in seen for r in batch]
+    assert {key for key, _, _ in reported} == set(keys)
+    assert {(s, wall) for _, s, wall in reported} == {(0.5, 42.0)}
+
+
+def test_cli_log_gets_a_line_per_point_and_the_running_points(capsys, tmp_path, monkeypatch):
+    """Where stderr is not a terminal (a log file, as here under capsys) `hydrojam sweep` prints a
+    line per finished point and, every RUNNING_LOG_INTERVAL_S, the running points with the s they
+    reached (one tiny real point, the intervals shortened)."""
+    import hydrojam.cli as cli
+    import hydrojam.study.sweep as sweep_module
+
+    monkeypatch.setattr(sweep_module, "PROGRESS_INTERVAL_S", 0.1)
+    monkeypatch.setattr(cli, "RUNNING_LOG_INTERVAL_S", 0.0)
+    study = study_from_dict({"name": "tiny", "design": {"particle_layers": 1, "mesh": {"size": 4.0}},
+                             "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [295]}}]})
+    path = tmp_path / "study.toml"
+    write_study(path, study)
+    rc, _, err = _cli(capsys, "sweep", str(path), "-o", str(tmp_path / "out"), "--workers", "1")
+    assert rc == 0, err
+    lines = err.splitlines()
+    assert any(" point 1/1 ok after " in ln and "temperature[0] stimulus.temperature=295" in ln and " deg" in ln
+               for ln in lines), err
+    running = [ln for ln in lines if " running: temperature[0] stimulus.temperature=295: s = " in ln]
+    assert running, err
+    s_values = [float(ln.split(": s = ")[1].split()[0]) for ln in running]
+    assert all(0.0 <= s <= 1.0 for s in s_values) and s_values == sorted(s_values)

@@ -29,9 +29,9 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
               scheduler: str | None = None, sweeps: Sequence[str] | None = None,
               on_point: Callable[[PointOutcome, int, int], None] | None = None,
               replicas: int = 1, dimension: int = 2,
-              compare_2d: str | os.PathLike | None = None) -> tuple[SweepTable, Path]:
+              compare_2d: str | os.PathLike | None = None, on_running=None) -> tuple[SweepTable, Path]:
     """Run the Section IV study into ``out`` (:func:`hydrojam.study.sweep.run_sweep` with
-    ``workers``, ``scheduler`` and ``on_point``; quick: a subset on a 4 mm mesh; ``sweeps``: only
+    ``workers``, ``scheduler``, ``on_point`` and ``on_running``; quick: a subset on a 4 mm mesh; ``sweeps``: only
     those named, the others can be added by a later call into the same folder; ``replicas`` per
     point: the table, figures and verdicts then use their mean and spread), write the
     figures into ``OUT/figures/`` and ``OUT/report.md``; returns (SweepTable, report path).
@@ -46,7 +46,7 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
     if compare_2d is not None and dimension != 3:
         raise ValueError("compare_2d: only with dimension 3 (it compares a 3D study with a 2D one)")
     table_2d = read_2d_results(compare_2d, quick) if compare_2d is not None else None
-    table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point)
+    table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point, on_running=on_running)
     write_figures(out, table)
     report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler,
                           base=study.base, compare_2d=table_2d, compare_source=compare_2d)

@@ -124,15 +124,17 @@ def summarise(design: Design, runs: list[dict], wall_time_s: float | None = None
 def run_replicas(design: Design, out: str | os.PathLike, *, count: int | None = None,
                  workers: int | None = None, scheduler: str | None = None,
                  on_point: Callable[[PointOutcome, int, int], None] | None = None,
-                 point_fn: Callable[[Design, Path], dict] = run_point) -> tuple[SweepTable, ReplicaSummary]:
+                 point_fn: Callable[[Design, Path], dict] = run_point,
+                 on_running=None) -> tuple[SweepTable, ReplicaSummary]:
     """Run replicas 0 .. N-1 of ``design`` (N = ``count``, default ``design.replicas.count``) into
     ``OUT`` as :func:`hydrojam.study.sweep.run_sweep` runs a study (``workers``, ``scheduler``,
-    ``on_point``, ``point_fn`` as there; finished replicas in OUT are loaded, not run), write the
+    ``on_point``, ``point_fn``, ``on_running`` as there; finished replicas in OUT are loaded, not run), write the
     summary (module docstring) and return (the one-row table, the summary). Raises what
     run_sweep raises for bad arguments, DesignError for a bad count; nothing written then."""
     t0 = time.perf_counter()
     study = replica_study(design, count)
-    table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point, point_fn=point_fn)
+    table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point, point_fn=point_fn,
+                      on_running=on_running)
     records = _records(Path(out).absolute(), study)
     runs = replica_table(study, records).rows
     summary = summarise(study.base, runs, time.perf_counter() - t0)

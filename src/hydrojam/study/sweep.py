@@ -39,6 +39,7 @@ import logging
 import math
 import os
 import shutil
+import threading
 import time
 import traceback
 import types
@@ -79,6 +80,7 @@ __all__ = [
     "CONNECT_TIMEOUT_S",
     "METRIC_COLUMNS",
     "PointOutcome",
+    "RunningPoint",
     "SPREAD_METRICS",
     "SchedulerError",
     "SweepTable",
@@ -86,6 +88,7 @@ __all__ = [
     "build_table",
     "replica_table",
     "run_point",
+    "point_progress",
     "run_sweep",
 ]
 
@@ -435,6 +438,31 @@ class PointOutcome:
         return self.record.get("wall_time_s")
 
 
+@dataclass(frozen=True)
+class RunningPoint:
+    """A distinct design being computed: the study points sharing it, the load parameter ``s``
+    [-] of its run's last accepted state and the run's wall time so far [s] (a run resumed from
+    its checkpoint counts its earlier part)."""
+
+    points: tuple[Point, ...]
+    s: float
+    wall_time_s: float
+
+
+def point_progress(point_dir: str | os.PathLike) -> tuple[float, float] | None:
+    """(s, wall time [s]) of the last accepted state in ``point_dir``/history.csv; None where
+    there is none yet (or it cannot be read)."""
+    try:
+        rows = list(csv.DictReader(io.StringIO((Path(point_dir) / "history.csv").read_text(encoding="utf-8"))))
+        return float(rows[-1]["s"]), float(rows[-1]["wall_time_s"])
+    except (OSError, ValueError, KeyError, IndexError, TypeError):
+        return None
+
+
+#: seconds between two reports of the running points (``on_running`` of :func:`run_sweep`)
+PROGRESS_INTERVAL_S = 15.0
+
+
 def estimated_cost(design: Design) -> float:
     """A rough relative cost of simulating a design: particles / mesh.size^2."""
     return design.particle_layers * design.particles_per_layer / design.mesh.size**2
@@ -499,6 +527,8 @@ def run_sweep(
     scheduler: str | None = None,
     on_point: Callable[[PointOutcome, int, int], None] | None = None,
     point_fn: Callable[[Design, Path], dict] = run_point,
+    on_running: Callable[[list[RunningPoint]], None] | None = None,
+    progress_interval_s: float | None = None,
 ) -> SweepTable:
     """Run every distinct design of ``study`` into ``OUT/points/<key>/`` and write the table.
 
@@ -508,7 +538,11 @@ def run_sweep(
     expensive points start first. ``on_point(outcome, done, total)`` is called for every distinct
     design, the cached ones first, then each as it finishes. ``point_fn(design, point_dir) ->
     metrics`` is what a point runs (default :func:`run_point`); its exceptions are recorded as
-    failed points. On KeyboardInterrupt the futures are cancelled, the cluster closed, and the
+    failed points. ``on_running(points)`` is called every ``progress_interval_s`` seconds (default
+    :data:`PROGRESS_INTERVAL_S`) while
+    points run, from another thread, with the points started by this call that have an accepted
+    state and no result yet (:class:`RunningPoint`; read from their history.csv, so only where
+    the workers share OUT's file system). On KeyboardInterrupt the futures are cancelled, the cluster closed, and the
     interrupt re-raised: finished points are on disk. Returns the table, also written to
     ``OUT/results.csv`` and ``OUT/results.parquet``.
 
@@ -554,7 +588,9 @@ def run_sweep(
         if pending:
             if client is None:
                 cluster, client = _local_cluster(min(workers or os.cpu_count() or 1, len(pending)))
-            done = _compute(client, groups, pending, out, point_fn, records, on_point, done, total)
+            interval = PROGRESS_INTERVAL_S if progress_interval_s is None else progress_interval_s
+            done = _compute(client, groups, pending, out, point_fn, records, on_point, done, total, on_running,
+                            interval)
     finally:
         if client is not None:
             client.close()
@@ -580,11 +616,43 @@ def _check_same_study(out: Path, study: Study) -> None:
             "choose another output folder, or delete this one to start over")
 
 
-def _compute(client, groups, pending, out, point_fn, records, on_point, done, total) -> int:
+def _watch_running(groups, order, out, records, on_running, interval_s, since) -> threading.Event:
+    """Start a thread that calls ``on_running`` every ``interval_s`` with the points of ``order``
+    without a record whose history.csv was written at or after ``since`` (a time.time()); set the
+    returned event to stop it."""
+    stop = threading.Event()
+
+    def watch():
+        while not stop.wait(interval_s):
+            running = []
+            for key in order:
+                folder = out / "points" / key
+                if key in records:
+                    continue
+                try:
+                    if (folder / "history.csv").stat().st_mtime < since:
+                        continue
+                except OSError:
+                    continue
+                progress = point_progress(folder)
+                if progress is not None:
+                    running.append(RunningPoint(tuple(groups[key]), *progress))
+            if not stop.is_set():
+                on_running(running)
+
+    threading.Thread(target=watch, name="hydrojam-sweep-progress", daemon=True).start()
+    return stop
+
+
+def _compute(client, groups, pending, out, point_fn, records, on_point, done, total, on_running=None,
+             progress_interval_s=PROGRESS_INTERVAL_S) -> int:
     from distributed import as_completed
 
     order = sorted(pending, key=lambda k: -estimated_cost(groups[k][0].design))  # stable: study order on ties
     token = uuid.uuid4().hex[:8]
+    # a second's slack: file systems that keep mtimes in whole seconds
+    watcher = None if on_running is None else _watch_running(groups, order, out, records, on_running,
+                                                             progress_interval_s, time.time() - 1.0)
     futures = {}
     for rank, key in enumerate(order):
         fut = client.submit(_execute, point_fn, groups[key][0].design, str(out / "points" / key), key,
@@ -611,4 +679,7 @@ def _compute(client, groups, pending, out, point_fn, records, on_point, done, to
     except BaseException:
         client.cancel(list(futures))
         raise
+    finally:
+        if watcher is not None:
+            watcher.set()
     return done
