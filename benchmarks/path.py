@@ -53,6 +53,8 @@ VARIANTS = {
     "release_direct": ({}, {"direct": True, "easy_round": 20}),
     "release_first_0.1": ({}, {"first_scale": 0.1, "easy_round": 20}),
     "release_lower_100x": ({}, {"lower": 100.0, "easy_round": 20}),
+    "release_inexact": ({}, {"inexact": True}),
+    "release_inexact_keep": ({}, {"inexact": True, "keep_failed": True}),
     "stabilisation_0.001": ({"stabilisation": 1e-3}, {}),
     "no_stabilisation": ({"stabilisation": 0.0}, {}),
     "path_easy_60": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, easy_iterations=60)}, {}),

@@ -21,7 +21,7 @@ from hydrojam.actuator.metrics import RUN_FIELDS, branch_gap, time_to_fraction
 from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
 from hydrojam.actuator.stimulus import schedule_temperature
 from hydrojam.fem.linsolve import LinearSolver
-from hydrojam.fem.newton import NewtonOptions, minimize, negative_curvature
+from hydrojam.fem.newton import NewtonOptions, NewtonStatus, minimize, negative_curvature
 from hydrojam.fem.path import PathCheckpoint, PathOptions, first_unstable_s, solve_path
 from hydrojam.fem.terms import TimedTerm, ViscousStabilisation, by_name, lumped_volumes
 
@@ -40,6 +40,10 @@ ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=3
 #: its stabilised state, and a cap it reaches reports a state of the damping, not an
 #: equilibrium (docs/actuator.md, "The release of the long chambers")
 RELEASE_ROUNDS = 240
+
+
+#: the loosest Newton tolerance of an inexact release round (``_release(inexact=True)``, a variant)
+LOOSE_ROUND_RTOL = 1e-3
 
 
 #: load-path settings with a time-resolved stimulus: steps of at most 0.025 in s from the first
@@ -326,7 +330,8 @@ def simulate(
 
 def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEASE_ROUNDS, first_scale: float = 1.0,
              easy_round: int | None = None, lower: float = 10.0, direct: bool = False, after_failure: int = 20,
-             resume: ReleaseCheckpoint | None = None, on_round: Callable[[ReleaseCheckpoint], None] | None = None):
+             resume: ReleaseCheckpoint | None = None, on_round: Callable[[ReleaseCheckpoint], None] | None = None,
+             inexact: bool = False, keep_failed: bool = False):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
     on the last state (and lagged friction frozen there, as at a load step's start), again and
     again, the damping (``first_scale`` x the path's at first) lowered ``lower``x after every
@@ -340,14 +345,21 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
     the last converged round's state, released False if the rounds ran out (or the damping had
     to exceed 1000x) first, rounds a list of (damping scale, Newton iterations, converged).
     ``on_round(checkpoint)`` after every round (not the direct attempt) with what it takes to go
-    on from there; ``resume``: such a checkpoint to go on from (``x`` and ``first_scale`` unused)."""
+    on from there; ``resume``: such a checkpoint to go on from (``x`` and ``first_scale`` unused).
+
+    Variants measured, not in use (docs/actuator.md, "Two release variants"): ``inexact``, a
+    round's Newton tolerance a tenth of the imbalance (viscous / in play) the last round left,
+    within [rtol, :data:`LOOSE_ROUND_RTOL`], released only after a round at rtol; ``keep_failed``,
+    a failed round's last state (admissible, lower in energy) is the next round's centre."""
     free = problem.free_mask()
     rtol = options.newton.rtol
     solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: PARDISO's set-up costs 0.4 s
     its, scale, rounds, failed = 0, first_scale * stab.scale, [], False
+    round_rtol = LOOSE_ROUND_RTOL if inexact else rtol
     if resume is not None:
         x, its, scale, failed, rounds = np.array(resume.x, dtype=float), resume.iterations, resume.scale, \
             resume.failed, list(resume.rounds)
+        round_rtol = rtol if resume.round_rtol is None else resume.round_rtol
         solver.restore_pattern(resume.solver_pattern)
         direct = False
     start = len(rounds)
@@ -363,20 +375,23 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
     def done_round() -> None:
         if on_round is not None:
             on_round(ReleaseCheckpoint(np.array(x, dtype=float), its, scale, failed, tuple(rounds), 0.0,
-                                       solver.pattern))
+                                       solver.pattern, round_rtol if inexact else None))
 
     for _ in range(max_rounds - start):
         stab.scale = scale
         ts = terms(1.0)
         for t in ts:  # each round is a step: the damping centred and friction frozen at its start
             t.begin_step(x)
-        res = minimize(ts, x, free, problem.force_scale, options.newton, solver)
+        newton = options.newton if round_rtol == rtol else dataclasses.replace(options.newton, rtol=round_rtol)
+        res = minimize(ts, x, free, problem.force_scale, newton, solver)
         its += res.iterations
         timings.add(res.timings)
         rounds.append((scale, res.iterations, res.converged))
         if not res.converged:
             if scale >= 1e3:
                 break
+            if keep_failed and res.status is NewtonStatus.MAX_ITERATIONS:
+                x = res.x
             scale *= 10.0
             failed = True
             done_round()
@@ -384,8 +399,10 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
         x = res.x
         viscous = float(np.linalg.norm(stab.gradient(x)[free]))
         in_play = float(np.linalg.norm(by_name(ts)["elastic"].force_flux(x)[free]))
-        if viscous <= max(rtol * in_play, options.newton.residual_floor * problem.force_scale):
+        if viscous <= max(rtol * in_play, options.newton.residual_floor * problem.force_scale) and round_rtol <= rtol:
             return x, its, True, rounds
+        if inexact:
+            round_rtol = min(LOOSE_ROUND_RTOL, max(rtol, 0.1 * viscous / max(in_play, 1e-300)))
         # after a failed round, lower again only after an easy round: otherwise a state still
         # travelling alternates between a round that converges and a lower one that fails
         limit = easy_round if easy_round is not None else (after_failure if failed else None)
