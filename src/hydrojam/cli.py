@@ -488,7 +488,7 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
     last_info, logged = [""], [time.perf_counter()]
     started_lock = threading.Lock()
 
-    def on_running(running):
+    def on_running(running, done, total):
         text = _running_text(running)
         if quiet:
             return
@@ -500,7 +500,8 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
             with started_lock:
                 if not progress.live.is_started:
                     progress.start()
-            progress.update(task, info=last_info[0] + (f" | running: {text}" if text else ""))
+            progress.update(task, completed=done, total=total,
+                            info=last_info[0] + (f" | running: {text}" if text else ""))
 
     def on_point(outcome, done, total):
         with started_lock:

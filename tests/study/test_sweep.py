@@ -467,9 +467,11 @@ def test_running_points_are_reported_with_the_s_they_reached(scheduler, tmp_path
 
     seen = []
     table = run_sweep(study, tmp_path / "out", scheduler=scheduler, point_fn=reports_half_way,
-                      on_running=seen.append, progress_interval_s=0.2)
+                      on_running=lambda running, done, total: seen.append((running, done, total)),
+                      progress_interval_s=0.2)
     assert [r["status"] for r in table.rows] == ["ok", "ok"]
-    reported = [(r.points[0].key, r.s, r.wall_time_s) for batch in seen for r in batch]
+    assert {total for _, _, total in seen} == {2} and all(0 <= done <= 2 for _, done, _ in seen)
+    reported = [(r.points[0].key, r.s, r.wall_time_s) for batch, _, _ in seen for r in batch]
     assert {key for key, _, _ in reported} == set(keys)
     assert {(s, wall) for _, s, wall in reported} == {(0.5, 42.0)}
 

@@ -527,7 +527,7 @@ def run_sweep(
     scheduler: str | None = None,
     on_point: Callable[[PointOutcome, int, int], None] | None = None,
     point_fn: Callable[[Design, Path], dict] = run_point,
-    on_running: Callable[[list[RunningPoint]], None] | None = None,
+    on_running: Callable[[list[RunningPoint], int, int], None] | None = None,
     progress_interval_s: float | None = None,
 ) -> SweepTable:
     """Run every distinct design of ``study`` into ``OUT/points/<key>/`` and write the table.
@@ -538,7 +538,7 @@ def run_sweep(
     expensive points start first. ``on_point(outcome, done, total)`` is called for every distinct
     design, the cached ones first, then each as it finishes. ``point_fn(design, point_dir) ->
     metrics`` is what a point runs (default :func:`run_point`); its exceptions are recorded as
-    failed points. ``on_running(points)`` is called every ``progress_interval_s`` seconds (default
+    failed points. ``on_running(points, done, total)`` is called every ``progress_interval_s`` seconds (default
     :data:`PROGRESS_INTERVAL_S`) while
     points run, from another thread, with the points started by this call that have an accepted
     state and no result yet (:class:`RunningPoint`; read from their history.csv, so only where
@@ -638,7 +638,7 @@ def _watch_running(groups, order, out, records, on_running, interval_s, since) -
                 if progress is not None:
                     running.append(RunningPoint(tuple(groups[key]), *progress))
             if not stop.is_set():
-                on_running(running)
+                on_running(running, len(records), len(groups))
 
     threading.Thread(target=watch, name="hydrojam-sweep-progress", daemon=True).start()
     return stop
