@@ -206,8 +206,8 @@ def simulate(
     ``checkpoint``: a file (:mod:`hydrojam.actuator.checkpoint`) rewritten after every accepted
     step and every round of the release; ``resume``: a checkpoint of this model's design to go on
     from (its states are not passed to ``on_step`` again). A resumed run is the same computation
-    but for the linear solver's analysis, done anew: its answer may differ from a run in one go
-    by the design's round-off spread.
+    as a run in one go, bit for bit on one machine with the same thread settings: the linear
+    solvers' union patterns are part of the checkpoint (docs/actuator.md, "Checkpoints").
 
     With ``stimulus.schedule`` in the design the path is time-resolved (built by
     :func:`~hydrojam.actuator.model.build_model`) and
