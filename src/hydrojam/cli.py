@@ -454,11 +454,9 @@ RUNNING_LOG_INTERVAL_S = 600.0
 
 def _running_text(running) -> str:
     """The running points in a few words: label, s reached and run time."""
-    return "; ".join(f"{_point_label(r)}: s = {r.s:.3f} after {_duration_text(r.wall_time_s)}" for r in running)
+    from hydrojam.assess.speed import duration
 
-
-def _duration_text(seconds: float) -> str:
-    return f"{seconds:.0f} s" if seconds < 120 else (f"{seconds / 60:.1f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h")
+    return "; ".join(f"{_point_label(r)}: s = {r.s:.3f} after {duration(r.wall_time_s)}" for r in running)
 
 
 def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False, after=None) -> None:
@@ -473,6 +471,7 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
     from rich.text import Text
 
     from hydrojam.actuator.design import DesignError
+    from hydrojam.assess.speed import duration
     from hydrojam.study.sweep import SchedulerError
 
     console = Console(stderr=True)
@@ -489,9 +488,9 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
     started_lock = threading.Lock()
 
     def on_running(running, done, total):
-        text = _running_text(running)
         if quiet:
             return
+        text = _running_text(running)
         if log:
             if running and time.perf_counter() - logged[0] >= RUNNING_LOG_INTERVAL_S:
                 logged[0] = time.perf_counter()
@@ -521,7 +520,7 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
         progress.update(task, completed=done, total=total, info=info)
         if log and not quiet and not outcome.cached:
             wall = outcome.wall_time_s
-            took = f" after {_duration_text(wall)}" if isinstance(wall, (int, float)) else ""
+            took = f" after {duration(wall)}" if isinstance(wall, (int, float)) else ""
             plain = Text.from_markup(info).plain
             console.print(f"{time.strftime('%H:%M:%S')} point {done}/{total} {outcome.status}{took}: {plain}",
                           soft_wrap=True, highlight=False, markup=False)

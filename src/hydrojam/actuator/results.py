@@ -46,7 +46,7 @@ from hydrojam.actuator.metrics import HISTORY_FIELDS, STATE_METRICS, centreline_
 from hydrojam.actuator.model import ActuatorModel
 from hydrojam.actuator.provenance import run_provenance
 from hydrojam.actuator.plots import plot_actuator, plot_angle_time
-from hydrojam.actuator.simulate import SimulationResult, StepState
+from hydrojam.actuator.simulate import SimulationResult, StepState, checkpoint_states
 
 #: the columns of history.csv (:data:`hydrojam.actuator.metrics.HISTORY_FIELDS`)
 HISTORY_COLUMNS = [m.name for m in HISTORY_FIELDS]
@@ -188,8 +188,7 @@ class ResultWriter:
         write_design(self.out / "design.toml", self.model.design)
         keep = set()
         if ck is not None:
-            states = [StepState(**st, x=x) for st, x in zip(ck.states, ck.xs)]
-            for st in states:
+            for st in checkpoint_states(ck):
                 self.rows.append(history_row(st))
                 if self.vtu:
                     rel = f"steps/step_{st.index:04d}.vtu"

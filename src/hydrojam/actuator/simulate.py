@@ -138,6 +138,11 @@ class SimulationResult:
         return finite_or_none({**self.final.metrics, **{m.name: run[m.name] for m in RUN_FIELDS}})
 
 
+def checkpoint_states(ck: RunCheckpoint) -> list[StepState]:
+    """The accepted states that checkpoint ``ck`` holds (positions copied)."""
+    return [StepState(**st, x=np.array(x, dtype=float)) for st, x in zip(ck.states, ck.xs)]
+
+
 def time_metrics(states: list[StepState], path) -> dict:
     """The time-resolved run fields (:data:`~hydrojam.actuator.metrics.RUN_FIELDS`, docs/actuator.md
     "Actuation in time") of accepted ``states`` on ``path``; all None on an untimed path.
@@ -252,7 +257,7 @@ def simulate(
     else:
         from hydrojam import __version__
 
-        states.extend(StepState(**st, x=np.array(x, dtype=float)) for st, x in zip(resume.states, resume.xs))
+        states.extend(checkpoint_states(resume))
         ratio[0] = resume.energy_ratio
         resumed = tuple(resume.resumed) + ({"s": states[-1].s, "state": states[-1].index, "version": __version__},)
     path_ck: list[PathCheckpoint | None] = [None if resume is None else resume.path]
