@@ -1,7 +1,9 @@
 """Adaptive damping of the load path (hydrojam.fem.path, PathOptions.damping_growth): a step that
 runs out of Newton iterations is retried, at the same increment, with the viscous stabilisation
-raised, and easy steps lower it again. Checked on a one-DOF snap whose critical load is known."""
+raised, and easy steps lower it again. And the increment's recovery after a cut
+(PathOptions.recover). Checked on a one-DOF snap whose critical load is known."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -42,11 +44,11 @@ class DoubleWell(EnergyTerm):
         return sp.diags(h, format="csr")
 
 
-def _path(growth):
+def _path(growth, easy=4, recover=True, load=1.0):
     stab = ViscousStabilisation(np.ones(1), 0.05, 2)  # weak: 0.05 against the well's curvature -4 A
-    problem = Problem(np.array([[-1.0, 0.0]]), lambda s: [DoubleWell(s), stab], [fixed([0], 2, [1])])
-    options = PathOptions(ds0=0.1, ds_max=0.1, ds_min=1e-3, easy_iterations=4, damping_growth=growth,
-                          newton=NewtonOptions(max_iter=6), stability_check=False)
+    problem = Problem(np.array([[-1.0, 0.0]]), lambda s: [DoubleWell(load * s), stab], [fixed([0], 2, [1])])
+    options = PathOptions(ds0=0.1, ds_max=0.1, ds_min=1e-3, easy_iterations=easy, damping_growth=growth,
+                          newton=NewtonOptions(max_iter=6), stability_check=False, recover=recover)
     return solve_path(problem, options), stab
 
 
@@ -73,3 +75,64 @@ def test_without_a_damped_term_nothing_adapts():
     problem = Problem(np.array([[-1.0, 0.0]]), lambda s: [DoubleWell(0.2 * s)], [fixed([0], 2, [1])])
     res = solve_path(problem, PathOptions(ds0=0.5, stability_check=False))
     assert res.converged and all(h.damping is None for h in res.history)
+
+
+def test_the_increment_grows_back_after_a_cut_even_where_no_step_is_easy():
+    """No step counts as easy (easy_iterations 0, as 3D actuator steps of 60-290 iterations
+    against the 30 that count as easy) and the damping does not adapt, so the snap cuts the
+    increment. Without recovery it stays cut to the end; with it every accepted step after the
+    cut grows it 1.5x (or to what is left of the path), up to the 0.1 that was cut and no
+    further. Both paths end in the right well."""
+    stuck, _ = _path(1.0, easy=0, recover=False)
+    recovered, _ = _path(1.0, easy=0, recover=True)
+    assert stuck.converged and recovered.converged
+    assert stuck.x[0, 0] > 0 and recovered.x[0, 0] > 0
+    cut = next(i for i, h in enumerate(recovered.history) if h.ds < 0.1 - 1e-12)
+    smallest = min(h.ds for h in stuck.history)
+    assert smallest < 0.1 and stuck.history[-2].ds == pytest.approx(smallest)  # never grew again
+    steps = recovered.history[cut:]
+    for a, b in zip(steps, steps[1:]):
+        assert b.ds <= 0.1 + 1e-12
+        # grew 1.5x, or was capped by the increment cut, or by the end of the path, or cut again
+        assert b.ds == pytest.approx(min(1.5 * a.ds, 0.1, 1 - a.s)) or b.ds < a.ds
+    assert max(h.ds for h in steps[1:]) == pytest.approx(0.1)
+    assert len(recovered.history) < len(stuck.history)
+
+
+def test_recovery_leaves_a_path_without_a_cut_as_it_was():
+    """A load below the snap never fails a step: the path is the same to the bit with and
+    without the recovery (every actuator design whose path was never cut keeps its answer)."""
+    on, _ = _path(1.0, easy=0, recover=True, load=0.5)
+    off, _ = _path(1.0, easy=0, recover=False, load=0.5)
+    assert on.rejected_steps == off.rejected_steps == 0
+    assert [h.ds for h in on.history] == [h.ds for h in off.history]
+    assert np.array_equal(on.x, off.x)
+
+
+def test_a_path_resumed_after_a_cut_grows_back_as_in_one_go():
+    """The increment that was cut is part of the checkpoint: a path stopped in its recovery and
+    resumed takes the same steps to the same state as the path in one go."""
+    whole, _ = _path(1.0, easy=0, recover=True)
+    cut = next(i for i, h in enumerate(whole.history) if h.ds < 0.1 - 1e-12)
+    saved = []
+
+    class Stop(Exception):
+        pass
+
+    def keep(ck):
+        saved.append(ck)
+        if len(ck.history) == cut + 2:
+            raise Stop
+
+    stab = ViscousStabilisation(np.ones(1), 0.05, 2)
+    problem = Problem(np.array([[-1.0, 0.0]]), lambda s: [DoubleWell(s), stab], [fixed([0], 2, [1])])
+    options = PathOptions(ds0=0.1, ds_max=0.1, ds_min=1e-3, easy_iterations=0, damping_growth=1.0,
+                          newton=NewtonOptions(max_iter=6), stability_check=False)
+    with pytest.raises(Stop):
+        solve_path(problem, options, on_checkpoint=keep)
+    assert saved[-1].ds_cut == pytest.approx(0.1)
+    resumed = solve_path(problem, options, resume=saved[-1])
+    assert [h.ds for h in resumed.history] == [h.ds for h in whole.history]
+    assert np.array_equal(resumed.x, whole.x)
+    forgotten = solve_path(problem, options, resume=dataclasses.replace(saved[-1], ds_cut=0.0))
+    assert len(forgotten.history) > len(whole.history)  # without it, the increment stays cut

@@ -94,7 +94,7 @@ def save_checkpoint(path: str | Path, ck: RunCheckpoint) -> None:
         "design_digest": ck.design_digest,
         "states": list(ck.states),
         "path": {"s": ck.path.s, "ds": ck.path.ds, "damping": ck.path.damping, "rejected": ck.path.rejected,
-                 "history": [dataclasses.asdict(h) for h in ck.path.history],
+                 "ds_cut": ck.path.ds_cut, "history": [dataclasses.asdict(h) for h in ck.path.history],
                  "timings": dataclasses.asdict(ck.path.timings)},
         "release": None if ck.release is None else {
             "iterations": ck.release.iterations, "scale": ck.release.scale, "failed": ck.release.failed,
@@ -149,7 +149,8 @@ def load_checkpoint(path: str | Path, design, shape: tuple[int, int]) -> RunChec
     p = meta["path"]
     path_ck = PathCheckpoint(path_x, float(p["s"]), float(p["ds"]), float(p["damping"]),
                              tuple(StepRecord(**h) for h in p["history"]), int(p["rejected"]),
-                             Timings(**p["timings"]), patterns["path"])
+                             Timings(**p["timings"]), patterns["path"],
+                             None if p.get("ds_cut") is None else float(p["ds_cut"]))
     r = meta["release"]
     release = None if r is None else ReleaseCheckpoint(
         release_x, int(r["iterations"]), float(r["scale"]), bool(r["failed"]),
