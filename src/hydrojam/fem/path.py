@@ -37,8 +37,8 @@ class PathOptions:
     """After a cut, every accepted step grows the increment ``grow``x again, easy or not, up to
     the largest increment that was cut (an easy step may still grow it further). Without it
     only easy steps grow the increment, and a path whose steps all take more than
-    ``easy_iterations`` (3D: 60-290 each) never recovers from a cut: 15 layers in 3D crawled at
-    ds = 0.0002 for hours after one snap. A path without a cut is not touched, to the bit."""
+    ``easy_iterations`` (3D actuators) never recovers from a cut (docs/solver.md, "Recovery
+    after a cut"). A path without a cut is not touched, to the bit."""
     stability_check: bool = True
     """Count the negative eigenvalues of the physical Hessian at every accepted state
     (:func:`~hydrojam.fem.newton.negative_curvature`, one more factorisation a step; see
