@@ -1,7 +1,7 @@
 """Where an actuator simulation's Newton iterations go, and what a change of the path (step
 control, stabilisation, its release at s = 1) does to them and to the answer (issue 12, lever b).
 
-Run:  .venv/bin/python benchmarks/path.py [--variant NAME ...] [--design one_layer|default ...]
+Run:  .venv/bin/python benchmarks/path.py [--variant NAME ...] [--design one_layer|default|default_3d ...]
                                           [--seeds 0 1 2 | --replicas N [--workers 2]]
                                           [--set friction=0.01 ...] [--steps]
 
@@ -16,7 +16,8 @@ seed 0, docs/replicas.md), ``--workers`` of them at once in separate processes, 
 variant the mean, standard deviation and range of the angle and tip and the mean iterations: the
 test of whether a faster path samples the same distribution of equilibria as the default one.
 ``--set`` overrides design fields for every run. ``--steps`` prints the iterations of every load
-step.
+step, with its damping scale and failed attempts, and of every release round. ``default_3d`` is
+the default design in 3D at the quick mesh (half model, 4 mm): about 45 CPU minutes a run.
 
 Iteration counts are deterministic; wall times are disturbed by whatever else runs (the load is
 printed).
@@ -43,7 +44,8 @@ from hydrojam.actuator.design import apply_overrides, default_design, with_repli
 from hydrojam.actuator.model import build_model  # noqa: E402
 
 DESIGNS = {"one_layer": ["particle_layers=1"], "default": [],
-           "near_prepared": ["particle_layers=1", "mesh.size=4", "stimulus.mu=-0.0343", "stimulus.temperature=300"]}
+           "near_prepared": ["particle_layers=1", "mesh.size=4", "stimulus.mu=-0.0343", "stimulus.temperature=300"],
+           "default_3d": ["dimension=3", "mesh.size=4"]}
 
 #: variant name -> (keyword arguments of simulate, keyword arguments of the release)
 VARIANTS = {
@@ -59,6 +61,7 @@ VARIANTS = {
     "no_stabilisation": ({"stabilisation": 0.0}, {}),
     "path_easy_60": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, easy_iterations=60)}, {}),
     "path_ds_0.1_0.2": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, ds0=0.1, ds_max=0.2)}, {}),
+    "path_relax_damping": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, damping_relax_after=2)}, {}),
 }
 
 
@@ -81,23 +84,32 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
     model = build_model(d)
     if seed is not None:
         model = jittered(model, seed)
-    original = simulate_module._release
+    original, original_path = simulate_module._release, simulate_module.solve_path
     simulate_module._release = functools.partial(original, **release_kw)
+    paths = []
+
+    def solve_path(*args, **kwargs):
+        paths.append(original_path(*args, **kwargs))
+        return paths[-1]
+
+    simulate_module.solve_path = solve_path
     try:
         t0 = time.perf_counter()
         calls = []
         res = simulate_module.simulate(model, on_step=calls.append, **sim_kw)
         wall = time.perf_counter() - t0
     finally:
-        simulate_module._release = original
+        simulate_module._release, simulate_module.solve_path = original, original_path
     m = res.metrics
     rounds = res.stabilisation.get("release_rounds", [])
     release_its = sum(r["iterations"] for r in rounds)
     if len(calls) > 1 and calls[-1].index == calls[-2].index:
         calls.pop()  # the released final state replaces the path's last, stabilised one
     if steps:
-        print(f"  {design} {variant} seed {seed}: step iterations "
-              + " ".join(str(st.iterations) for st in calls[1:])
+        history = paths[-1].history if paths else []
+        print(f"  {design} {variant} seed {seed}: step iterations (@ damping scale, ! a failed attempt) "
+              + " ".join(f"{h.iterations}@{h.damping if h.damping is not None else 0:g}{'!' * h.rejected}"
+                         for h in history)
               + "; release rounds " + " ".join(f"{r['scale']:g}:{r['iterations']}{'' if r['converged'] else '!'}"
                                                for r in rounds), flush=True)
     label = "-" if seed is None and replica is None else (f"r{replica}" if replica is not None else str(seed))

@@ -1,7 +1,8 @@
 """Adaptive damping of the load path (hydrojam.fem.path, PathOptions.damping_growth): a step that
 runs out of Newton iterations is retried, at the same increment, with the viscous stabilisation
-raised, and easy steps lower it again. And the increment's recovery after a cut
-(PathOptions.recover). Checked on a one-DOF snap whose critical load is known."""
+raised, and easy steps lower it again (or, with PathOptions.damping_relax_after, steps in a row
+at its level). And the increment's recovery after a cut (PathOptions.recover). Checked on a
+one-DOF snap whose critical load is known."""
 
 import dataclasses
 import math
@@ -44,18 +45,19 @@ class DoubleWell(EnergyTerm):
         return sp.diags(h, format="csr")
 
 
-def _snap(growth, easy=4, recover=True, load=1.0):
+def _snap(growth, easy=4, recover=True, load=1.0, relax=0):
     """The double well under ``load`` x F with a weak stabilisation, and path options whose
     Newton budget (6) the snap exceeds: (problem, options, stabilisation)."""
     stab = ViscousStabilisation(np.ones(1), 0.05, 2)  # weak: 0.05 against the well's curvature -4 A
     problem = Problem(np.array([[-1.0, 0.0]]), lambda s: [DoubleWell(load * s), stab], [fixed([0], 2, [1])])
     options = PathOptions(ds0=0.1, ds_max=0.1, ds_min=1e-3, easy_iterations=easy, damping_growth=growth,
-                          newton=NewtonOptions(max_iter=6), stability_check=False, recover=recover)
+                          newton=NewtonOptions(max_iter=6), stability_check=False, recover=recover,
+                          damping_relax_after=relax)
     return problem, options, stab
 
 
-def _path(growth, easy=4, recover=True, load=1.0):
-    problem, options, stab = _snap(growth, easy, recover, load)
+def _path(growth, easy=4, recover=True, load=1.0, relax=0):
+    problem, options, stab = _snap(growth, easy, recover, load, relax)
     return solve_path(problem, options), stab
 
 
@@ -140,3 +142,67 @@ def test_a_path_resumed_after_a_cut_grows_back_as_in_one_go():
     assert np.array_equal(resumed.x, whole.x)
     forgotten = solve_path(problem, options, resume=dataclasses.replace(saved[-1], ds_cut=0.0))
     assert len(forgotten.history) > len(whole.history)  # without it, the increment stays cut
+
+
+def test_a_raised_damping_comes_down_after_steps_at_its_level_even_where_no_step_is_easy():
+    """No step counts as easy (as in 3D), so the damping raised at the snap stays raised to the
+    end of the path; with damping_relax_after = 2 it is divided by 10 after 2 accepted steps in a
+    row at its level (counted again from a step that failed first: a relaxation that failed and
+    was raised back), down to where it started. The relaxed path ends nearer the equilibrium,
+    which the damping at 100x lags behind."""
+    load = 2.0  # the snap at s = S_CRITICAL / 2: room for the relaxation after it
+    stuck, stuck_stab = _path(10.0, easy=0, load=load)
+    relaxed, relaxed_stab = _path(10.0, easy=0, relax=2, load=load)
+    assert stuck.converged and relaxed.converged
+    raised = next(i for i, h in enumerate(stuck.history) if h.damping > 1)
+    assert all(h.damping == stuck.history[raised].damping for h in stuck.history[raised:])
+    assert stuck_stab.scale > 1.0 and len(stuck.history) - raised > 4
+    levels = [h.damping for h in relaxed.history]
+    assert max(levels) > 1 and levels[-1] == 1.0 and relaxed_stab.scale == 1.0
+    lowered = [i for i in range(1, len(levels)) if levels[i] < levels[i - 1]]
+    assert len(lowered) == 2  # 100x -> 10x -> 1x
+    for i in lowered:
+        assert levels[i] == pytest.approx(levels[i - 1] / 10)
+        prev = relaxed.history[i - 2: i]
+        assert all(h.damping == levels[i - 1] for h in prev) and prev[-1].rejected == 0
+    u_eq = max(np.roots([4 * A, 0.0, -4 * A, -load * F]).real)  # E'(u) = 0 at s = 1, right well
+    assert abs(relaxed.x[0, 0] - u_eq) < abs(stuck.x[0, 0] - u_eq)
+
+
+def test_relaxing_leaves_a_path_whose_damping_was_never_raised_as_it_was():
+    """A load below the snap never raises the damping: the same path to the bit either way."""
+    on, _ = _path(10.0, easy=0, load=0.5, relax=2)
+    off, _ = _path(10.0, easy=0, load=0.5, relax=0)
+    assert all(h.damping == 1.0 for h in on.history)
+    assert [h.ds for h in on.history] == [h.ds for h in off.history]
+    assert np.array_equal(on.x, off.x)
+
+
+def test_a_path_resumed_while_relaxing_its_damping_goes_on_as_in_one_go():
+    """The steps at a damping level are counted from the history, which the checkpoint holds
+    (with each step's failed attempts): a path stopped after any step from the raise to the end
+    of the relaxation and resumed (on a fresh problem, as a new run would: a stopped path leaves
+    its damped term's scale raised) takes the same steps to the same state as in one go."""
+    whole, _ = _path(10.0, easy=0, relax=2, load=2.0)
+    raised = next(i for i, h in enumerate(whole.history) if h.damping > 1)
+    relaxed = next(i for i, h in enumerate(whole.history) if i > raised and h.damping == 1.0)
+
+    class Stop(Exception):
+        pass
+
+    for stop in range(raised + 1, relaxed + 1):
+        saved = []
+
+        def keep(ck):
+            saved.append(ck)
+            if len(ck.history) == stop:
+                raise Stop
+
+        problem, options, _ = _snap(10.0, easy=0, load=2.0, relax=2)
+        with pytest.raises(Stop):
+            solve_path(problem, options, on_checkpoint=keep)
+        problem, options, _ = _snap(10.0, easy=0, load=2.0, relax=2)
+        resumed = solve_path(problem, options, resume=saved[-1])
+        assert [(h.ds, h.damping, h.rejected) for h in resumed.history] == \
+            [(h.ds, h.damping, h.rejected) for h in whole.history], stop
+        assert np.array_equal(resumed.x, whole.x), stop

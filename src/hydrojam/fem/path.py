@@ -56,6 +56,12 @@ class PathOptions:
     damping lets travel far within one step then travels in several damped steps."""
     max_damping: float = 100.0
     """Largest scale of the damped term, relative to its scale at the start of the path."""
+    damping_relax_after: int = 0
+    """With N > 0, a raised damping is also divided by ``damping_growth`` after N accepted steps
+    in a row at its level, easy or not (as :attr:`recover` for the increment); 0: only easy
+    steps lower it. A path whose damping was never raised is not touched, to the bit. Off by
+    default: measured on the 3D default design, not adopted (docs/solver.md, "Relaxing the
+    damping")."""
 
 
 @dataclass(frozen=True)
@@ -78,6 +84,9 @@ class StepRecord:
     damping: float | None = None
     """Scale of the damped term (``PathOptions.damped_term``) in the step, relative to its scale
     at the start of the path (1 unless the adaptive damping raised it); None without the term."""
+    rejected: int = 0
+    """Attempts at this step that failed before it was accepted (each raised the damping or cut
+    the increment); 0 in a record written before it was kept."""
 
 
 @dataclass(frozen=True)
@@ -125,6 +134,20 @@ class PathCheckpoint:
     """The largest increment cut so far, to which :attr:`PathOptions.recover` grows back (0: none
     cut); None where unknown (a checkpoint written before it was kept): taken as the path's
     first increment ``ds0`` if any step was rejected, else 0."""
+
+
+def _steps_at(history, damping: float) -> int:
+    """Accepted steps in a row, the last ones, whose damping scale is ``damping``, counted back to
+    the last step that failed first (where the damping may have been raised back to this level
+    after a relaxation that failed: the count starts again there)."""
+    n = 0
+    for rec in reversed(history):
+        if rec.damping is None or abs(rec.damping - damping) > 1e-9 * damping:
+            break
+        n += 1
+        if rec.rejected:
+            break
+    return n
 
 
 def first_unstable_s(history) -> float | None:
@@ -226,7 +249,7 @@ def solve_path(
         if damped is not None:
             damped.scale = base * resume.damping
     message = "converged"
-    newton, last_resort = options.newton, False
+    newton, last_resort, failed_here = options.newton, False, 0
     while s < 1.0 - options.end_tolerance:
         ds = min(ds, 1.0 - s)
         s_try = s + ds
@@ -254,22 +277,27 @@ def solve_path(
                 physical = [t for t in terms if t.name not in options.unphysical_terms]
                 negative = negative_curvature(physical, res.x, free, checker, options.newton)
             rec = StepRecord(s, ds, res.iterations, res.residual, res.energy, time.perf_counter() - t0, negative,
-                             None if damped is None else damped.scale / base)
+                             None if damped is None else damped.scale / base, failed_here)
+            failed_here = 0
             history.append(rec)
             if callback is not None:
                 callback(s, res.x, rec)
-            if res.iterations <= options.easy_iterations:
+            easy = res.iterations <= options.easy_iterations
+            if easy:
                 ds = min(ds * options.grow, options.ds_max)
-                if damped is not None and damped.scale > base:
-                    damped.scale = max(damped.scale / options.damping_growth, base)
             elif options.recover and ds < ds_cut:
                 ds = min(ds * options.grow, ds_cut)
+            if damped is not None and damped.scale > base and (
+                    easy or (options.damping_relax_after > 0
+                             and _steps_at(history, damped.scale / base) >= options.damping_relax_after)):
+                damped.scale = max(damped.scale / options.damping_growth, base)
             if on_checkpoint is not None:
                 on_checkpoint(PathCheckpoint(x.copy(), s, ds, 1.0 if damped is None else damped.scale / base,
                                              tuple(history), rejected, dataclasses.replace(tm), solver.pattern,
                                              ds_cut))
         else:
             rejected += 1
+            failed_here += 1
             if (damped is not None and res.status is not NewtonStatus.INADMISSIBLE_START and options.damping_growth > 1
                     and damped.scale * options.damping_growth <= options.max_damping * base * (1 + 1e-12)):
                 damped.scale *= options.damping_growth  # retry the same increment, more damped
