@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml tools/bootstrap.sh
 
 # The demo takes under a minute on 2 cores (36 s measured on a fresh clone): the swelling curve and the paper's temperature and
 # strain-limit thickness sweeps (quick); the particle-layer sweep (its 19-layer point alone takes
-# about 4 minutes) is added by the command it prints.
+# about 10 minutes) is added by the command it prints.
 demo: $(STAMP)
 	mkdir -p $(DEMO_OUT)
 	$(BIN)/hydrojam swell --t-min 275 --t-max 315 --t-step 2.5 --plot $(DEMO_OUT)/swelling.png
