@@ -454,7 +454,7 @@ RUNNING_LOG_INTERVAL_S = 600.0
 
 def _running_text(running) -> str:
     """The running points in a few words: label, s reached and run time."""
-    from hydrojam.assess.speed import duration
+    from hydrojam._format import duration
 
     return "; ".join(f"{_point_label(r)}: s = {r.s:.3f} after {duration(r.wall_time_s)}" for r in running)
 
@@ -471,7 +471,7 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
     from rich.text import Text
 
     from hydrojam.actuator.design import DesignError
-    from hydrojam.assess.speed import duration
+    from hydrojam._format import duration
     from hydrojam.study.sweep import SchedulerError
 
     console = Console(stderr=True)

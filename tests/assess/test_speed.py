@@ -6,7 +6,8 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import jn_zeros
 
-from hydrojam.assess.speed import duration, swelling_time
+from hydrojam._format import duration
+from hydrojam.assess.speed import swelling_time
 
 
 def _series_t90(dimension: int, radius: float, D: float) -> float:

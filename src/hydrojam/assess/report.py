@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 from hydrojam._io import atomic_path, make_folder, write_text_atomic
 from hydrojam.actuator.design import design_to_toml
 from hydrojam.assess.assessment import Assessment
-from hydrojam.assess.speed import duration
+from hydrojam._format import duration
 
 #: bending-stiffness gains the authors' later work reports for active particle jamming
 REPORTED_GAIN = (9.0, 30.0)

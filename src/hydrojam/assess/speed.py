@@ -28,11 +28,3 @@ def swelling_time(radius: float, diffusivity: float, dimension: int) -> tuple[fl
     return tau, t90
 
 
-def duration(seconds: float | None) -> str:
-    """A duration in the unit a person reads best (s, min, h or days)."""
-    if seconds is None or not np.isfinite(seconds):
-        return "n/a"
-    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
-        if seconds >= 2 * size:
-            return f"{seconds / size:.3g} {unit}"
-    return f"{seconds:.3g} s"

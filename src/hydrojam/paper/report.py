@@ -12,6 +12,7 @@ from pathlib import Path
 from hydrojam import __version__
 from hydrojam._io import write_text_atomic
 from hydrojam.actuator.design import Design
+from hydrojam._format import duration
 from hydrojam.paper._rows import cell, cell_pm, fmt_param, number, point_status, rows_of, sorted_by, truthy
 from hydrojam.paper.claims import (
     ANGLE_TOL,
@@ -205,8 +206,8 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     L += [f"- {n_points} distinct points (the base point is shared by the three sweeps): {counts['ok']} converged, "
           f"{counts['not_converged']} not converged, {counts['failed']} failed.",
           f"- Workers: {_workers_text(workers, scheduler)}; "
-          f"wall time {'—' if number(wall_time_s) is None else _duration(wall_time_s)}; "
-          f"compute time summed over points {_duration(compute)} (a resumed run reuses finished points).",
+          f"wall time {'—' if number(wall_time_s) is None else duration(wall_time_s)}; "
+          f"compute time summed over points {duration(compute)} (a resumed run reuses finished points).",
           f"- Claims: {verdicts['agree']} agree, {verdicts['disagree']} disagree, "
           f"{verdicts['undetermined']} undetermined"
           + (f", {verdicts[SPREAD_VERDICT]} {SPREAD_VERDICT}." if n_replicas > 1 else "."), ""]
@@ -254,15 +255,4 @@ def _workers_text(workers: int | None, scheduler: str | None) -> str:
         return f"the dask scheduler at {scheduler}"
     return f"{workers} local" if workers is not None else "local, one per CPU (default)"
 
-
-def _duration(seconds: float | None) -> str:
-    """A duration in s, min or h, whichever reads best ("—" for none)."""
-    s = number(seconds)
-    if s is None:
-        return "—"
-    if s < 120:
-        return f"{s:.0f} s"
-    if s < 7200:
-        return f"{s / 60:.1f} min"
-    return f"{s / 3600:.2f} h"
 
