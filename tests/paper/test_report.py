@@ -27,6 +27,9 @@ def test_report(study_dir):
     assert not re.search(r"\bnan\b|\binf\b", text, re.IGNORECASE)
     assert "**quick**" in text and "mesh size 4 mm" in text and "62.1 min" in text and "Workers: 2 local" in text
     assert "failed: solver stopped: minimum increment" in text
+    assert "this run:" not in text  # no count given, none claimed
+    again = preport.write_report(out, table, quick=True, wall_time_s=1.0, computed=3).read_text(encoding="utf-8")
+    assert "wall time 1 s (this run: 3 of the " in again and "points computed, the others reused" in again
     assert "not_converged" in text
     assert "EXPLAINED BY THE CALLER" in text  # h-angle disagrees: the caller's reason
     assert pclaims.DISAGREEMENT_REASONS["PL-curling"] in text  # the default reason

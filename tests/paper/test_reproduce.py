@@ -40,6 +40,7 @@ def test_reproduce_end_to_end_from_cached_points(tmp_path):
     assert verdicts == {c.id: ("undetermined" if c.sweep == "strain_limit_thickness" else "agree")
                         for c in pclaims.PAPER_CLAIMS}
     assert "10 distinct points" in text and "compute time summed over points 10 min" in text
+    assert "(this run: 0 of the 10 points computed, the others reused" in text
     # the command line over the same cache: nothing to simulate, exit status 0, report rewritten
     from hydrojam.cli import main
 

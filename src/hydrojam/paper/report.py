@@ -146,7 +146,7 @@ def _tolerance_text() -> list[str]:
 def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float | None,
                  explanations: dict[str, str] | None = None, *, workers: int | None = None,
                  scheduler: str | None = None, base: Design | None = None, compare_2d=None,
-                 compare_source: str | os.PathLike | None = None) -> Path:
+                 compare_source: str | os.PathLike | None = None, computed: int | None = None) -> Path:
     """Write ``OUT/report.md`` (atomically) and return its path.
 
     What was run (quick or full, mesh size, points, workers, wall time, hydrojam version); per
@@ -157,6 +157,8 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     its dimension makes it the 2D or the 3D study's report. A 3D report adds the section "2D
     against 3D" (:func:`hydrojam.paper.compare.comparison_lines`) with ``compare_2d``, the 2D
     study's table of the same kind read from folder ``compare_source``, or says how to get it.
+    ``computed``: how many distinct points this run computed (finished or went on from a
+    checkpoint) rather than reused from an earlier run into the same folder.
     """
     out = Path(out)
     base = base if base is not None else paper_base(quick)
@@ -206,8 +208,10 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     L += [f"- {n_points} distinct points (the base point is shared by the three sweeps): {counts['ok']} converged, "
           f"{counts['not_converged']} not converged, {counts['failed']} failed.",
           f"- Workers: {_workers_text(workers, scheduler)}; "
-          f"wall time {'—' if number(wall_time_s) is None else duration(wall_time_s)}; "
-          f"compute time summed over points {duration(compute)} (a resumed run reuses finished points).",
+          f"wall time {'—' if number(wall_time_s) is None else duration(wall_time_s)}"
+          + ("" if computed is None else f" (this run: {computed} of the {n_points} points computed, the others "
+                                         "reused from earlier runs into this folder)")
+          + f"; compute time summed over points {duration(compute)} (a resumed run reuses finished points).",
           f"- Claims: {verdicts['agree']} agree, {verdicts['disagree']} disagree, "
           f"{verdicts['undetermined']} undetermined"
           + (f", {verdicts[SPREAD_VERDICT]} {SPREAD_VERDICT}." if n_replicas > 1 else "."), ""]

@@ -35,7 +35,8 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
     those named, the others can be added by a later call into the same folder; ``replicas`` per
     point: the table, figures and verdicts then use their mean and spread), write the
     figures into ``OUT/figures/`` and ``OUT/report.md``; returns (SweepTable, report path).
-    The report's wall time [s] is this call's. ``dimension`` 2 or 3 (ValueError otherwise, and
+    The report's wall time [s] is this call's, with how many points it computed (the others
+    reused). ``dimension`` 2 or 3 (ValueError otherwise, and
     StudyError, nothing run, for an OUT holding the other dimension's or kind's study);
     ``compare_2d``: with dimension 3, a folder holding the 2D study of the same kind, read
     before anything runs (:func:`hydrojam.paper.compare.read_2d_results`; CompareError, a
@@ -46,8 +47,16 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
     if compare_2d is not None and dimension != 3:
         raise ValueError("compare_2d: only with dimension 3 (it compares a 3D study with a 2D one)")
     table_2d = read_2d_results(compare_2d, quick) if compare_2d is not None else None
-    table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point, on_running=on_running)
+    computed = []
+
+    def point_done(outcome: PointOutcome, done: int, total: int) -> None:
+        if not outcome.cached:
+            computed.append(outcome.key)
+        if on_point is not None:
+            on_point(outcome, done, total)
+
+    table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=point_done, on_running=on_running)
     write_figures(out, table)
     report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler,
-                          base=study.base, compare_2d=table_2d, compare_source=compare_2d)
+                          base=study.base, compare_2d=table_2d, compare_source=compare_2d, computed=len(computed))
     return table, report
