@@ -16,7 +16,8 @@ seed 0, docs/replicas.md), ``--workers`` of them at once in separate processes, 
 variant the mean, standard deviation and range of the angle and tip and the mean iterations: the
 test of whether a faster path samples the same distribution of equilibria as the default one.
 ``--set`` overrides design fields for every run. ``--steps`` prints the iterations of every load
-step, with its damping scale and failed attempts, and of every release round. ``default_3d`` is
+step as it is accepted and, at the end, with its damping scale and failed attempts, and of every
+release round. ``default_3d`` is
 the default design in 3D at the quick mesh (half model, 4 mm): about 45 CPU minutes a run.
 
 Iteration counts are deterministic; wall times are disturbed by whatever else runs (the load is
@@ -96,7 +97,14 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
     try:
         t0 = time.perf_counter()
         calls = []
-        res = simulate_module.simulate(model, on_step=calls.append, **sim_kw)
+
+        def on_step(state):
+            calls.append(state)
+            if steps:  # live, for the long runs (3D: most of an hour)
+                print(f"    {design} {variant}: s = {state.s:.4f}, {state.iterations} iterations, "
+                      f"{time.perf_counter() - t0:.0f} s", flush=True)
+
+        res = simulate_module.simulate(model, on_step=on_step, **sim_kw)
         wall = time.perf_counter() - t0
     finally:
         simulate_module._release, simulate_module.solve_path = original, original_path
