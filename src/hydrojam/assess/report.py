@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from hydrojam._format import duration
 from hydrojam._io import atomic_path, make_folder, write_text_atomic
 from hydrojam.actuator.design import design_to_toml
 from hydrojam.assess.assessment import Assessment
-from hydrojam._format import duration
 
 #: bending-stiffness gains the authors' later work reports for active particle jamming
 REPORTED_GAIN = (9.0, 30.0)

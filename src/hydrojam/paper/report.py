@@ -10,9 +10,9 @@ import os
 from pathlib import Path
 
 from hydrojam import __version__
+from hydrojam._format import duration
 from hydrojam._io import write_text_atomic
 from hydrojam.actuator.design import Design
-from hydrojam._format import duration
 from hydrojam.paper._rows import cell, cell_pm, fmt_param, number, point_status, rows_of, sorted_by, truthy
 from hydrojam.paper.claims import (
     ANGLE_TOL,
