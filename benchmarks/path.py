@@ -58,6 +58,7 @@ VARIANTS = {
     "release_lower_100x": ({}, {"lower": 100.0, "easy_round": 20}),
     "release_inexact": ({}, {"inexact": True}),
     "release_inexact_keep": ({}, {"inexact": True, "keep_failed": True}),
+    "release_backoff": ({}, {"backoff_rounds": 4}),
     "stabilisation_0.001": ({"stabilisation": 1e-3}, {}),
     "no_stabilisation": ({"stabilisation": 0.0}, {}),
     "path_easy_60": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, easy_iterations=60)}, {}),

@@ -232,3 +232,103 @@ def test_the_release_lowers_the_damping_after_a_failure_only_after_an_easy_round
         if scales[i + 1] < scales[i]:
             assert rounds[i][2] and rounds[i][1] <= 20
     assert released and np.allclose(x, target, atol=1e-5)
+
+
+def _proximal_stand_in(monkeypatch, fails_beyond: float | None, easy: bool = True):
+    """The release on a stand-in: the physics k/2 |x - x*|^2 (k = 1, x* at 1 mm), each round an
+    exact proximal step x <- (x* + c x)/(1 + c) at damping scale c, 30 Newton iterations unless
+    the move is below 1e-3 mm (then 5: easy; never with ``easy`` False). A round below scale 1
+    fails (200 iterations) while the distance to x* exceeds ``fails_beyond`` (always with None).
+    Returns (sim, problem, stab)."""
+    import hydrojam.actuator.simulate as sim
+    from hydrojam.fem.newton import NewtonResult, NewtonStatus, Timings
+    from hydrojam.fem.problem import Problem
+    from hydrojam.fem.terms import EnergyTerm, ViscousStabilisation
+
+    target = np.array([[1.0, 0.0]])
+
+    class Spring(EnergyTerm):
+        name = "elastic"
+
+        def energy(self, x):
+            return 0.5 * float(np.sum((np.ravel(x) - target.ravel()) ** 2))
+
+        def gradient(self, x):
+            return np.ravel(x) - target.ravel()
+
+        def hessian(self, x, project=False):
+            import scipy.sparse as sp
+
+            return sp.identity(np.size(x), format="csr")
+
+        def force_flux(self, x, gradient=None):
+            return np.ones(np.size(x))
+
+    stab = ViscousStabilisation(np.ones(1), 1.0, 2)
+    problem = Problem(np.zeros((1, 2)), lambda s: [Spring(), stab], force_scale=1.0)
+
+    def fake_minimize(terms, x, free, force_scale, options, solver):
+        x = np.asarray(x, dtype=float)
+        distance = np.abs(target - x).max()
+        if stab.scale < 1 and (fails_beyond is None or distance > fails_beyond):
+            return NewtonResult(x, NewtonStatus.MAX_ITERATIONS, 200, 1.0, 0.0, "", [], Timings())
+        new = (target + stab.scale * x) / (1 + stab.scale)
+        its = 30 if np.abs(new - x).max() > 1e-3 or not easy else 5
+        return NewtonResult(new, NewtonStatus.CONVERGED, its, 0.0, 0.0, "", [], Timings())
+
+    monkeypatch.setattr(sim, "minimize", fake_minimize)
+    return sim, problem, stab
+
+
+def test_the_release_with_backoff_lowers_after_k_rounds_and_doubles_k_after_each_failure(monkeypatch):
+    """backoff_rounds = 2 (a variant, off by default): where the lower damping becomes possible
+    once the state is near (within 0.2 mm), the release lowers after 2 rounds at the raised level
+    instead of waiting for an easy one, and releases in fewer rounds and iterations; where it
+    never becomes possible (rounds below scale 1 always fail), the waits double (2, 4, 8, ...), so
+    the failed rounds grow with the logarithm of the rounds. Without it the rounds are those of
+    the rule in use."""
+    from hydrojam.fem.newton import Timings
+
+    sim, problem, stab = _proximal_stand_in(monkeypatch, fails_beyond=0.2)
+
+    def release(**kw):
+        stab.scale = 1.0
+        return sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms, Timings(),
+                            max_rounds=80, **kw)
+
+    plain, backoff = release(), release(backoff_rounds=2)
+    assert plain[2] and backoff[2]  # both released
+    assert len(backoff[3]) < len(plain[3]) and backoff[1] < plain[1]
+    scales = [r[0] for r in backoff[3]]
+    assert scales[:4] == [1.0, 0.1, 1.0, 1.0] and not backoff[3][1][2]  # the failure, then 2 rounds at 1
+    assert scales[4] == pytest.approx(0.1) and backoff[3][4][2]  # lowered without an easy round: converged
+    assert release(backoff_rounds=None)[3] == plain[3]
+
+    sim, problem, stab = _proximal_stand_in(monkeypatch, fails_beyond=None, easy=False)
+    stab.scale = 1.0
+    x, its, released, rounds = sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms,
+                                            Timings(), max_rounds=60, backoff_rounds=2)
+    failed = [i for i, r in enumerate(rounds) if not r[2]]
+    waits = [b - a - 1 for a, b in zip(failed, failed[1:])]
+    assert released and waits[:3] == [2, 4, 8]  # converged rounds at scale 1 between failed tries at 0.1
+    assert len(failed) <= 5  # about log2 of the rounds, not one failure every other round
+
+
+def test_a_release_with_backoff_resumed_from_any_round_goes_on_as_in_one_go(monkeypatch):
+    """The backoff is counted from the rounds, which the release's checkpoint holds: resumed
+    after any round, the release takes the same rounds to the same state."""
+    from hydrojam.fem.newton import Timings
+
+    sim, problem, stab = _proximal_stand_in(monkeypatch, fails_beyond=None, easy=False)
+
+    def release(**kw):
+        stab.scale = 1.0
+        return sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms, Timings(),
+                            max_rounds=60, backoff_rounds=2, **kw)
+
+    saved = []
+    whole = release(on_round=saved.append)
+    assert whole[2] and len(saved) == len(whole[3]) - 1  # every round but the releasing one
+    for ck in saved:
+        again = release(resume=ck)
+        assert again[3] == whole[3] and np.array_equal(again[0], whole[0]) and again[1] == whole[1]

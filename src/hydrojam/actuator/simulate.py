@@ -333,10 +333,20 @@ def simulate(
                             res.rejected_steps, timings, stabilisation_info, resumed)
 
 
+def _backed_off(rounds, k: int | None) -> bool:
+    """With ``k``: whether the converged rounds since the last failed one (``rounds``: (scale,
+    iterations, converged)) number k 2^(f-1), f the failed rounds so far."""
+    if not k:
+        return False
+    failures = sum(1 for r in rounds if not r[2])
+    held = next((i for i, r in enumerate(reversed(rounds)) if not r[2]), len(rounds))
+    return failures > 0 and held >= k * 2 ** (failures - 1)
+
+
 def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEASE_ROUNDS, first_scale: float = 1.0,
              easy_round: int | None = None, lower: float = 10.0, direct: bool = False, after_failure: int = 20,
              resume: ReleaseCheckpoint | None = None, on_round: Callable[[ReleaseCheckpoint], None] | None = None,
-             inexact: bool = False, keep_failed: bool = False):
+             inexact: bool = False, keep_failed: bool = False, backoff_rounds: int | None = None):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
     on the last state (and lagged friction frozen there, as at a load step's start), again and
     again, the damping (``first_scale`` x the path's at first) lowered ``lower``x after every
@@ -355,7 +365,12 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
     Variants measured, not in use (docs/actuator.md, "Two release variants"): ``inexact``, a
     round's Newton tolerance a tenth of the imbalance (viscous / in play) the last round left,
     within [rtol, :data:`LOOSE_ROUND_RTOL`], released only after a round at rtol; ``keep_failed``,
-    a failed round's last state (admissible, lower in energy) is the next round's centre."""
+    a failed round's last state (admissible, lower in energy) is the next round's centre;
+    ``backoff_rounds`` k, after a failed round the damping is also lowered after k converged
+    rounds in a row at its level (easy or not), k doubling with every failed round (k 2^(f-1)
+    after f failures), so that a state that travels at a raised damping is not held there until
+    its rounds turn easy, and one that cannot take the lower damping costs about log2(rounds)
+    failed rounds. Counted from ``rounds``, so a resumed release goes on as in one go."""
     free = problem.free_mask()
     rtol = options.newton.rtol
     solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: PARDISO's set-up costs 0.4 s
@@ -411,7 +426,7 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
         # after a failed round, lower again only after an easy round: otherwise a state still
         # travelling alternates between a round that converges and a lower one that fails
         limit = easy_round if easy_round is not None else (after_failure if failed else None)
-        if limit is None or res.iterations <= limit:
+        if limit is None or res.iterations <= limit or (failed and _backed_off(rounds, backoff_rounds)):
             scale = max(scale / lower, 1e-8)
             failed = False
         done_round()
