@@ -179,6 +179,34 @@ def test_a_second_run_on_the_same_model_starts_without_the_first_runs_friction()
     assert np.array_equal(first.final.x, second.final.x)
 
 
+_TARGET = np.array([[1.0, 0.0]])  # the release stand-ins' equilibrium x* [mm]
+
+
+def _spring():
+    """The release stand-ins' physics: k/2 |x - x*|^2 with k = 1 N/mm, x* = _TARGET, and 1 N per
+    DOF of forces in play."""
+    import scipy.sparse as sp
+
+    from hydrojam.fem.terms import EnergyTerm
+
+    class Spring(EnergyTerm):
+        name = "elastic"
+
+        def energy(self, x):
+            return 0.5 * float(np.sum((np.ravel(x) - _TARGET.ravel()) ** 2))
+
+        def gradient(self, x):
+            return np.ravel(x) - _TARGET.ravel()
+
+        def hessian(self, x, project=False):
+            return sp.identity(np.size(x), format="csr")
+
+        def force_flux(self, x, gradient=None):
+            return np.ones(np.size(x))
+
+    return Spring()
+
+
 def test_the_release_lowers_the_damping_after_a_failure_only_after_an_easy_round(monkeypatch):
     """The release's control (actuator.simulate._release) on a stand-in minimisation: rounds at
     damping scale >= 1 converge, each moving halfway to the physics' equilibrium x* (iterations
@@ -189,29 +217,11 @@ def test_the_release_lowers_the_damping_after_a_failure_only_after_an_easy_round
     import hydrojam.actuator.simulate as sim
     from hydrojam.fem.newton import NewtonResult, NewtonStatus, Timings
     from hydrojam.fem.problem import Problem
-    from hydrojam.fem.terms import EnergyTerm, ViscousStabilisation
+    from hydrojam.fem.terms import ViscousStabilisation
 
-    target = np.array([[1.0, 0.0]])
-
-    class Spring(EnergyTerm):  # the physics: k/2 |x - x*|^2
-        name = "elastic"
-
-        def energy(self, x):
-            return 0.5 * float(np.sum((np.ravel(x) - target.ravel()) ** 2))
-
-        def gradient(self, x):
-            return np.ravel(x) - target.ravel()
-
-        def hessian(self, x, project=False):
-            import scipy.sparse as sp
-
-            return sp.identity(np.size(x), format="csr")
-
-        def force_flux(self, x, gradient=None):
-            return np.ones(np.size(x))  # forces in play: 1 N per DOF
-
+    target = _TARGET
     stab = ViscousStabilisation(np.ones(1), 1.0, 2)
-    problem = Problem(np.zeros((1, 2)), lambda s: [Spring(), stab], force_scale=1.0)
+    problem = Problem(np.zeros((1, 2)), lambda s: [_spring(), stab], force_scale=1.0)
 
     def fake_minimize(terms, x, free, force_scale, options, solver):
         x = np.asarray(x, dtype=float)
@@ -243,29 +253,11 @@ def _proximal_stand_in(monkeypatch, fails_beyond: float | None, easy: bool = Tru
     import hydrojam.actuator.simulate as sim
     from hydrojam.fem.newton import NewtonResult, NewtonStatus, Timings
     from hydrojam.fem.problem import Problem
-    from hydrojam.fem.terms import EnergyTerm, ViscousStabilisation
+    from hydrojam.fem.terms import ViscousStabilisation
 
-    target = np.array([[1.0, 0.0]])
-
-    class Spring(EnergyTerm):
-        name = "elastic"
-
-        def energy(self, x):
-            return 0.5 * float(np.sum((np.ravel(x) - target.ravel()) ** 2))
-
-        def gradient(self, x):
-            return np.ravel(x) - target.ravel()
-
-        def hessian(self, x, project=False):
-            import scipy.sparse as sp
-
-            return sp.identity(np.size(x), format="csr")
-
-        def force_flux(self, x, gradient=None):
-            return np.ones(np.size(x))
-
+    target = _TARGET
     stab = ViscousStabilisation(np.ones(1), 1.0, 2)
-    problem = Problem(np.zeros((1, 2)), lambda s: [Spring(), stab], force_scale=1.0)
+    problem = Problem(np.zeros((1, 2)), lambda s: [_spring(), stab], force_scale=1.0)
 
     def fake_minimize(terms, x, free, force_scale, options, solver):
         x = np.asarray(x, dtype=float)
