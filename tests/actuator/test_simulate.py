@@ -207,43 +207,6 @@ def _spring():
     return Spring()
 
 
-def test_the_release_lowers_the_damping_after_a_failure_only_after_an_easy_round(monkeypatch):
-    """The release's control (actuator.simulate._release) on a stand-in minimisation: rounds at
-    damping scale >= 1 converge, each moving halfway to the physics' equilibrium x* (iterations
-    30, then 5 once the move is small), rounds below 1 fail (200 iterations). After the first
-    failure the scale stays at 1 until a round is easy (<= 20 iterations), instead of trying 0.1
-    after every converged round; the state is released once the viscous force is below the
-    tolerance."""
-    import hydrojam.actuator.simulate as sim
-    from hydrojam.fem.newton import NewtonResult, NewtonStatus, Timings
-    from hydrojam.fem.problem import Problem
-    from hydrojam.fem.terms import ViscousStabilisation
-
-    target = _TARGET
-    stab = ViscousStabilisation(np.ones(1), 1.0, 2)
-    problem = Problem(np.zeros((1, 2)), lambda s: [_spring(), stab], force_scale=1.0)
-
-    def fake_minimize(terms, x, free, force_scale, options, solver):
-        x = np.asarray(x, dtype=float)
-        if stab.scale < 1:
-            return NewtonResult(x, NewtonStatus.MAX_ITERATIONS, 200, 1.0, 0.0, "", [], Timings())
-        move = 0.5 * (target - x)
-        its = 30 if np.abs(move).max() > 1e-3 else 5
-        return NewtonResult(x + move, NewtonStatus.CONVERGED, its, 0.0, 0.0, "", [], Timings())
-
-    monkeypatch.setattr(sim, "minimize", fake_minimize)
-    x, its, released, rounds = sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms,
-                                            Timings(), max_rounds=80)
-    scales = [r[0] for r in rounds]
-    assert scales[:2] == [1.0, 0.1] and not rounds[1][2]  # lowered after the first round, failed
-    first_easy = next(i for i, r in enumerate(rounds) if r[2] and r[1] <= 20)
-    assert first_easy > 3 and all(sc == 1.0 for sc in scales[2:first_easy + 1])  # held until easy
-    for i in range(2, len(rounds) - 1):  # every lowering after the first failure follows an easy round
-        if scales[i + 1] < scales[i]:
-            assert rounds[i][2] and rounds[i][1] <= 20
-    assert released and np.allclose(x, target, atol=1e-5)
-
-
 def _proximal_stand_in(monkeypatch, fails_beyond: float | None, easy: bool = True):
     """The release on a stand-in: the physics k/2 |x - x*|^2 (k = 1, x* at 1 mm), each round an
     exact proximal step x <- (x* + c x)/(1 + c) at damping scale c, 30 Newton iterations unless
@@ -255,21 +218,42 @@ def _proximal_stand_in(monkeypatch, fails_beyond: float | None, easy: bool = Tru
     from hydrojam.fem.problem import Problem
     from hydrojam.fem.terms import ViscousStabilisation
 
-    target = _TARGET
     stab = ViscousStabilisation(np.ones(1), 1.0, 2)
     problem = Problem(np.zeros((1, 2)), lambda s: [_spring(), stab], force_scale=1.0)
 
     def fake_minimize(terms, x, free, force_scale, options, solver):
         x = np.asarray(x, dtype=float)
-        distance = np.abs(target - x).max()
+        distance = np.abs(_TARGET - x).max()
         if stab.scale < 1 and (fails_beyond is None or distance > fails_beyond):
             return NewtonResult(x, NewtonStatus.MAX_ITERATIONS, 200, 1.0, 0.0, "", [], Timings())
-        new = (target + stab.scale * x) / (1 + stab.scale)
+        new = (_TARGET + stab.scale * x) / (1 + stab.scale)
         its = 30 if np.abs(new - x).max() > 1e-3 or not easy else 5
         return NewtonResult(new, NewtonStatus.CONVERGED, its, 0.0, 0.0, "", [], Timings())
 
     monkeypatch.setattr(sim, "minimize", fake_minimize)
     return sim, problem, stab
+
+
+def test_the_release_lowers_the_damping_after_a_failure_only_after_an_easy_round(monkeypatch):
+    """The release's control (actuator.simulate._release) on a stand-in minimisation: rounds at
+    damping scale >= 1 converge, each moving halfway to the physics' equilibrium x* (iterations
+    30, then 5 once the move is small), rounds below 1 fail (200 iterations). After the first
+    failure the scale stays at 1 until a round is easy (<= 20 iterations), instead of trying 0.1
+    after every converged round; the state is released once the viscous force is below the
+    tolerance."""
+    from hydrojam.fem.newton import Timings
+
+    sim, problem, stab = _proximal_stand_in(monkeypatch, fails_beyond=None)  # at scale 1: halfway
+    x, its, released, rounds = sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms,
+                                            Timings(), max_rounds=80)
+    scales = [r[0] for r in rounds]
+    assert scales[:2] == [1.0, 0.1] and not rounds[1][2]  # lowered after the first round, failed
+    first_easy = next(i for i, r in enumerate(rounds) if r[2] and r[1] <= 20)
+    assert first_easy > 3 and all(sc == 1.0 for sc in scales[2:first_easy + 1])  # held until easy
+    for i in range(2, len(rounds) - 1):  # every lowering after the first failure follows an easy round
+        if scales[i + 1] < scales[i]:
+            assert rounds[i][2] and rounds[i][1] <= 20
+    assert released and np.allclose(x, _TARGET, atol=1e-5)
 
 
 def test_the_release_with_backoff_lowers_after_k_rounds_and_doubles_k_after_each_failure(monkeypatch):
