@@ -59,6 +59,7 @@ VARIANTS = {
     "release_inexact": ({}, {"inexact": True}),
     "release_inexact_keep": ({}, {"inexact": True, "keep_failed": True}),
     "release_backoff": ({}, {"backoff_rounds": 4}),
+    "release_give_up_at_cap": ({}, {"beyond_cap": False}),
     "stabilisation_0.001": ({"stabilisation": 1e-3}, {}),
     "no_stabilisation": ({"stabilisation": 0.0}, {}),
     "path_easy_60": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, easy_iterations=60)}, {}),

@@ -207,11 +207,14 @@ def _spring():
     return Spring()
 
 
-def _proximal_stand_in(monkeypatch, fails_beyond: float | None, easy: bool = True):
+def _proximal_stand_in(monkeypatch, fails_beyond: float | None, easy: bool = True, fails=None):
     """The release on a stand-in: the physics k/2 |x - x*|^2 (k = 1, x* at 1 mm), each round an
     exact proximal step x <- (x* + c x)/(1 + c) at damping scale c, 30 Newton iterations unless
     the move is below 1e-3 mm (then 5: easy; never with ``easy`` False). A round below scale 1
-    fails (200 iterations) while the distance to x* exceeds ``fails_beyond`` (always with None).
+    fails (200 iterations) while the distance to x* exceeds ``fails_beyond`` (always with None);
+    with ``fails(c, n)`` (n: the round's index from 0 on this stand-in) instead, round n fails with the status it
+    returns (None: it converges). A round that runs out of iterations leaves its last iterate
+    halfway to the proximal step (admissible and lower in energy); any other failure, the start.
     Returns (sim, problem, stab)."""
     import hydrojam.actuator.simulate as sim
     from hydrojam.fem.newton import NewtonResult, NewtonStatus, Timings
@@ -220,13 +223,21 @@ def _proximal_stand_in(monkeypatch, fails_beyond: float | None, easy: bool = Tru
 
     stab = ViscousStabilisation(np.ones(1), 1.0, 2)
     problem = Problem(np.zeros((1, 2)), lambda s: [_spring(), stab], force_scale=1.0)
+    count = [0]
 
     def fake_minimize(terms, x, free, force_scale, options, solver):
         x = np.asarray(x, dtype=float)
-        distance = np.abs(_TARGET - x).max()
-        if stab.scale < 1 and (fails_beyond is None or distance > fails_beyond):
-            return NewtonResult(x, NewtonStatus.MAX_ITERATIONS, 200, 1.0, 0.0, "", [], Timings())
+        n, count[0] = count[0], count[0] + 1
         new = (_TARGET + stab.scale * x) / (1 + stab.scale)
+        if fails is not None:
+            status = fails(stab.scale, n)
+        elif stab.scale < 1 and (fails_beyond is None or np.abs(_TARGET - x).max() > fails_beyond):
+            status = NewtonStatus.MAX_ITERATIONS
+        else:
+            status = None
+        if status is not None:
+            last = x + 0.5 * (new - x) if status is NewtonStatus.MAX_ITERATIONS else x
+            return NewtonResult(last, status, 200, 1.0, 0.0, "", [], Timings())
         its = 30 if np.abs(new - x).max() > 1e-3 or not easy else 5
         return NewtonResult(new, NewtonStatus.CONVERGED, its, 0.0, 0.0, "", [], Timings())
 
@@ -307,4 +318,79 @@ def test_a_release_with_backoff_resumed_from_any_round_goes_on_as_in_one_go(monk
     assert whole[2] and len(saved) == len(whole[3]) - 1  # every round but the releasing one
     for ck in saved:
         again = release(resume=ck)
+        assert again[3] == whole[3] and np.array_equal(again[0], whole[0]) and again[1] == whole[1]
+
+
+def _capped(status):
+    """A release like the quick 3D 15-layer chamber's (docs/reproduce.md): its first round, at
+    the path's 100x, fails; rounds at 1000x converge, never easy; round 4, at 1000x, fails with
+    ``status``; nothing else fails."""
+    from hydrojam.fem.newton import NewtonStatus
+
+    return lambda scale, n: (NewtonStatus.MAX_ITERATIONS if n == 0 else status if n == 4 else None)
+
+
+def _release_from_100x(monkeypatch, fails, **kw):
+    """One release on a fresh stand-in (``fails`` as in :func:`_proximal_stand_in`, rounds never
+    easy), its stabilisation at 100x of the path's."""
+    from hydrojam.fem.newton import Timings
+
+    sim, problem, stab = _proximal_stand_in(monkeypatch, fails_beyond=None, easy=False, fails=fails)
+    stab.scale = 100.0
+    return sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms, Timings(),
+                        **{"max_rounds": 80, **kw})
+
+
+def test_the_release_goes_on_where_the_damping_would_pass_the_cap(monkeypatch):
+    """A round that runs out of iterations at 1000x (the cap) no longer ends the release: its last
+    iterate is kept as the next centre, the damping stays at 1000x, and it is lowered after
+    4 x 2^(f-1) converged rounds (f = 2 failed rounds: 8); the state is then released at x*.
+    Before that round, the rounds are those of the rule that gave up there (beyond_cap=False,
+    which returns the last converged round's state, not released); a release that never fails at
+    the cap takes the same rounds either way."""
+    from hydrojam.fem.newton import NewtonStatus
+
+    old = _release_from_100x(monkeypatch, _capped(NewtonStatus.MAX_ITERATIONS), beyond_cap=False)
+    x, its, released, rounds = _release_from_100x(monkeypatch, _capped(NewtonStatus.MAX_ITERATIONS))
+    assert not old[2] and len(old[3]) == 5 and rounds[:5] == old[3]
+    scales = [r[0] for r in rounds]
+    assert scales[:5] == [100.0] + [1000.0] * 4 and not rounds[4][2]
+    assert scales[5:13] == [1000.0] * 8 and all(r[2] for r in rounds[5:13])  # held 4 x 2 rounds
+    assert scales[13] == pytest.approx(100.0)
+    assert released and np.allclose(x, _TARGET, atol=1e-5)
+
+    # the failed round's iterate is kept: one more round at 1000x from the old end lands short of it
+    at_old_end = (_TARGET + 1000.0 * old[0]) / 1001.0
+    kept = old[0] + 0.5 * (at_old_end - old[0])
+    again = _release_from_100x(monkeypatch, _capped(NewtonStatus.MAX_ITERATIONS), max_rounds=6)
+    assert np.allclose(again[0], (_TARGET + 1000.0 * kept) / 1001.0, rtol=0, atol=1e-12)
+
+    never = lambda scale, n: NewtonStatus.MAX_ITERATIONS if n in (0, 3) and scale < 1000 else None  # noqa: E731
+    assert _release_from_100x(monkeypatch, never)[3] == _release_from_100x(monkeypatch, never, beyond_cap=False)[3]
+
+
+def test_a_failure_at_the_cap_without_descent_still_ends_the_release(monkeypatch):
+    """Only a round that ran out of iterations is progress; one with no admissible descent at
+    1000x would fail again from the same centre, so the release ends there as before: not
+    released, the last converged round's state."""
+    from hydrojam.fem.newton import NewtonStatus
+
+    old = _release_from_100x(monkeypatch, _capped(NewtonStatus.LINE_SEARCH_FAILED), beyond_cap=False)
+    new = _release_from_100x(monkeypatch, _capped(NewtonStatus.LINE_SEARCH_FAILED))
+    assert not new[2] and new[3] == old[3] and len(new[3]) == 5 and np.array_equal(new[0], old[0])
+
+
+def test_a_release_beyond_the_cap_resumed_from_any_round_goes_on_as_in_one_go(monkeypatch):
+    """Whether the release is past the cap is read from the rounds, which the checkpoint holds:
+    resumed after any round, the same rounds to the same state."""
+    from hydrojam.fem.newton import NewtonStatus
+
+    saved = []
+    whole = _release_from_100x(monkeypatch, _capped(NewtonStatus.MAX_ITERATIONS), on_round=saved.append)
+    assert whole[2] and len(saved) == len(whole[3]) - 1
+    for ck in saved:
+        # the stand-in counts rounds from 0: resumed after round i, the next is round i + 1
+        n0 = len(ck.rounds)
+        fails = _capped(NewtonStatus.MAX_ITERATIONS)
+        again = _release_from_100x(monkeypatch, lambda scale, n: fails(scale, n + n0), resume=ck)
         assert again[3] == whole[3] and np.array_equal(again[0], whole[0]) and again[1] == whole[1]

@@ -42,6 +42,15 @@ ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=3
 RELEASE_ROUNDS = 240
 
 
+#: the highest damping scale of the release (x the path's): a round that fails there is not
+#: followed by a higher one (see ``_release``, ``beyond_cap``)
+RELEASE_CAP = 1e3
+
+#: after a failed round at the cap, the damping is lowered after this many x 2^(f-1) converged
+#: rounds in a row at its level, f the failed rounds so far (the ``backoff_rounds`` variant)
+CAP_BACKOFF_ROUNDS = 4
+
+
 #: the loosest Newton tolerance of an inexact release round (``_release(inexact=True)``, a variant)
 LOOSE_ROUND_RTOL = 1e-3
 
@@ -343,10 +352,17 @@ def _backed_off(rounds, k: int | None) -> bool:
     return failures > 0 and held >= k * 2 ** (failures - 1)
 
 
+def _past_cap(rounds, beyond_cap: bool) -> bool:
+    """Whether a round has failed at :data:`RELEASE_CAP` (``rounds``: (scale, iterations,
+    converged)) and the release goes on beyond it."""
+    return beyond_cap and any(not ok and sc >= RELEASE_CAP for sc, _, ok in rounds)
+
+
 def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEASE_ROUNDS, first_scale: float = 1.0,
              easy_round: int | None = None, lower: float = 10.0, direct: bool = False, after_failure: int = 20,
              resume: ReleaseCheckpoint | None = None, on_round: Callable[[ReleaseCheckpoint], None] | None = None,
-             inexact: bool = False, keep_failed: bool = False, backoff_rounds: int | None = None):
+             inexact: bool = False, keep_failed: bool = False, backoff_rounds: int | None = None,
+             beyond_cap: bool = True):
     """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
     on the last state (and lagged friction frozen there, as at a load step's start), again and
     again, the damping (``first_scale`` x the path's at first) lowered ``lower``x after every
@@ -357,8 +373,18 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
     that fails. The viscous force left at the end of a round is exactly the residual of the
     physics alone, so the state is an equilibrium once that force is below the solver's
     tolerance (rtol x the forces in play). Returns (x, Newton iterations, released, rounds): x
-    the last converged round's state, released False if the rounds ran out (or the damping had
-    to exceed 1000x) first, rounds a list of (damping scale, Newton iterations, converged).
+    the centre the last round left (a converged round's state, or a kept failed round's),
+    released False if the rounds ran out first, rounds a list of (damping scale, Newton
+    iterations, converged).
+
+    Where the damping would have to exceed :data:`RELEASE_CAP` (a round failed there), the
+    release goes on (``beyond_cap``; without it, it gives up there, as before 2026-11-30): a
+    round that failed by running out of iterations is kept as progress (its last iterate is
+    admissible and lower in energy), the damping stays at the cap, and from then on every such
+    failed round is kept and the damping is also lowered after :data:`CAP_BACKOFF_ROUNDS` 2^(f-1)
+    converged rounds in a row at its level (f: the failed rounds so far). Any other failure at
+    the cap (no admissible descent) still gives up. A release that never reaches the cap takes
+    the same rounds either way (docs/actuator.md, "Beyond the cap").
     ``on_round(checkpoint)`` after every round (not the direct attempt) with what it takes to go
     on from there; ``resume``: such a checkpoint to go on from (``x`` and ``first_scale`` unused).
 
@@ -408,11 +434,13 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
         timings.add(res.timings)
         rounds.append((scale, res.iterations, res.converged))
         if not res.converged:
-            if scale >= 1e3:
+            ran_out = res.status is NewtonStatus.MAX_ITERATIONS
+            if scale >= RELEASE_CAP and not (beyond_cap and ran_out):
                 break
-            if keep_failed and res.status is NewtonStatus.MAX_ITERATIONS:
+            if (keep_failed or _past_cap(rounds, beyond_cap)) and ran_out:
                 x = res.x
-            scale *= 10.0
+            if scale < RELEASE_CAP:
+                scale *= 10.0
             failed = True
             done_round()
             continue
@@ -426,7 +454,8 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
         # after a failed round, lower again only after an easy round: otherwise a state still
         # travelling alternates between a round that converges and a lower one that fails
         limit = easy_round if easy_round is not None else (after_failure if failed else None)
-        if limit is None or res.iterations <= limit or (failed and _backed_off(rounds, backoff_rounds)):
+        backoff = CAP_BACKOFF_ROUNDS if _past_cap(rounds, beyond_cap) else backoff_rounds
+        if limit is None or res.iterations <= limit or (failed and _backed_off(rounds, backoff)):
             scale = max(scale / lower, 1e-8)
             failed = False
         done_round()
