@@ -37,8 +37,9 @@ class CheckpointError(ValueError):
 
 @dataclass(frozen=True)
 class ReleaseCheckpoint:
-    """The release at s = 1 between two rounds: positions x (n, d) [mm] of the last converged
-    round, Newton iterations so far, the damping scale of the next round (absolute, the term's
+    """The release at s = 1 between two rounds: positions x (n, d) [mm] of the next round's
+    centre (the last converged round's state, or a failed round's kept beyond the damping's
+    cap), Newton iterations so far, the damping scale of the next round (absolute, the term's
     ``scale``), whether a round has failed since the damping was last lowered, and the rounds so
     far as (scale, iterations, converged)."""
 
