@@ -378,7 +378,7 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
     iterations, converged).
 
     Where the damping would have to exceed :data:`RELEASE_CAP` (a round failed there), the
-    release goes on (``beyond_cap``; without it, it gives up there, as before 2026-11-30): a
+    release goes on (``beyond_cap``; without it, it gives up there, the rule before): a
     round that failed by running out of iterations is kept as progress (its last iterate is
     admissible and lower in energy), the damping stays at the cap, and from then on every such
     failed round is kept and the damping is also lowered after :data:`CAP_BACKOFF_ROUNDS` 2^(f-1)
