@@ -245,6 +245,17 @@ def _proximal_stand_in(monkeypatch, fails_beyond: float | None, easy: bool = Tru
     return sim, problem, stab
 
 
+def _release_on(stand_in, scale: float = 1.0, **kw):
+    """One release on a stand-in ((sim, problem, stab) of :func:`_proximal_stand_in`) from x = 0,
+    its damping at ``scale`` x the path's; at most 80 rounds unless ``max_rounds`` says."""
+    from hydrojam.fem.newton import Timings
+
+    sim, problem, stab = stand_in
+    stab.scale = scale
+    return sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms, Timings(),
+                        **{"max_rounds": 80, **kw})
+
+
 def test_the_release_lowers_the_damping_after_a_failure_only_after_an_easy_round(monkeypatch):
     """The release's control (actuator.simulate._release) on a stand-in minimisation: rounds at
     damping scale >= 1 converge, each moving halfway to the physics' equilibrium x* (iterations
@@ -252,11 +263,7 @@ def test_the_release_lowers_the_damping_after_a_failure_only_after_an_easy_round
     failure the scale stays at 1 until a round is easy (<= 20 iterations), instead of trying 0.1
     after every converged round; the state is released once the viscous force is below the
     tolerance."""
-    from hydrojam.fem.newton import Timings
-
-    sim, problem, stab = _proximal_stand_in(monkeypatch, fails_beyond=None)  # at scale 1: halfway
-    x, its, released, rounds = sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms,
-                                            Timings(), max_rounds=80)
+    x, its, released, rounds = _release_on(_proximal_stand_in(monkeypatch, fails_beyond=None))  # at 1: halfway
     scales = [r[0] for r in rounds]
     assert scales[:2] == [1.0, 0.1] and not rounds[1][2]  # lowered after the first round, failed
     first_easy = next(i for i, r in enumerate(rounds) if r[2] and r[1] <= 20)
@@ -274,14 +281,10 @@ def test_the_release_with_backoff_lowers_after_k_rounds_and_doubles_k_after_each
     never becomes possible (rounds below scale 1 always fail), the waits double (2, 4, 8, ...), so
     the failed rounds grow with the logarithm of the rounds. Without it the rounds are those of
     the rule in use."""
-    from hydrojam.fem.newton import Timings
-
-    sim, problem, stab = _proximal_stand_in(monkeypatch, fails_beyond=0.2)
+    stand_in = _proximal_stand_in(monkeypatch, fails_beyond=0.2)
 
     def release(**kw):
-        stab.scale = 1.0
-        return sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms, Timings(),
-                            max_rounds=80, **kw)
+        return _release_on(stand_in, **kw)
 
     plain, backoff = release(), release(backoff_rounds=2)
     assert plain[2] and backoff[2]  # both released
@@ -291,10 +294,8 @@ def test_the_release_with_backoff_lowers_after_k_rounds_and_doubles_k_after_each
     assert scales[4] == pytest.approx(0.1) and backoff[3][4][2]  # lowered without an easy round: converged
     assert release(backoff_rounds=None)[3] == plain[3]
 
-    sim, problem, stab = _proximal_stand_in(monkeypatch, fails_beyond=None, easy=False)
-    stab.scale = 1.0
-    x, its, released, rounds = sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms,
-                                            Timings(), max_rounds=60, backoff_rounds=2)
+    x, its, released, rounds = _release_on(_proximal_stand_in(monkeypatch, fails_beyond=None, easy=False),
+                                           max_rounds=60, backoff_rounds=2)
     failed = [i for i, r in enumerate(rounds) if not r[2]]
     waits = [b - a - 1 for a, b in zip(failed, failed[1:])]
     assert released and waits[:3] == [2, 4, 8]  # converged rounds at scale 1 between failed tries at 0.1
@@ -304,14 +305,10 @@ def test_the_release_with_backoff_lowers_after_k_rounds_and_doubles_k_after_each
 def test_a_release_with_backoff_resumed_from_any_round_goes_on_as_in_one_go(monkeypatch):
     """The backoff is counted from the rounds, which the release's checkpoint holds: resumed
     after any round, the release takes the same rounds to the same state."""
-    from hydrojam.fem.newton import Timings
-
-    sim, problem, stab = _proximal_stand_in(monkeypatch, fails_beyond=None, easy=False)
+    stand_in = _proximal_stand_in(monkeypatch, fails_beyond=None, easy=False)
 
     def release(**kw):
-        stab.scale = 1.0
-        return sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms, Timings(),
-                            max_rounds=60, backoff_rounds=2, **kw)
+        return _release_on(stand_in, max_rounds=60, backoff_rounds=2, **kw)
 
     saved = []
     whole = release(on_round=saved.append)
@@ -333,12 +330,7 @@ def _capped(status):
 def _release_from_100x(monkeypatch, fails, **kw):
     """One release on a fresh stand-in (``fails`` as in :func:`_proximal_stand_in`, rounds never
     easy), its stabilisation at 100x of the path's."""
-    from hydrojam.fem.newton import Timings
-
-    sim, problem, stab = _proximal_stand_in(monkeypatch, fails_beyond=None, easy=False, fails=fails)
-    stab.scale = 100.0
-    return sim._release(problem, stab, np.zeros((1, 2)), sim.ACTUATOR_PATH, problem.terms, Timings(),
-                        **{"max_rounds": 80, **kw})
+    return _release_on(_proximal_stand_in(monkeypatch, fails_beyond=None, easy=False, fails=fails), 100.0, **kw)
 
 
 def test_the_release_goes_on_where_the_damping_would_pass_the_cap(monkeypatch):
