@@ -567,7 +567,7 @@ def _check_workers(workers: Optional[int], scheduler: Optional[str], out: Path) 
 @app.command()
 def reproduce(
     out: Path = typer.Option(..., "-o", "--out", help="Output folder: report.md, figures/, results.csv/.parquet, points/; rerun to resume."),
-    quick: bool = typer.Option(False, "--quick", help="Coarser mesh (4 mm) and fewer points (12 rows, 10 designs): minutes in 2D, hours in 3D."),
+    quick: bool = typer.Option(False, "--quick", help="Coarser mesh (4 mm) and fewer points (12 rows, 10 designs): minutes in 2D, tens of CPU hours in 3D (days on 2 cores)."),
     dimension: int = typer.Option(2, "--dimension", help="2 (plane strain, cylinders) or 3 (spheres, the half model): a study of its own, in its own output folder."),
     compare_2d: Optional[Path] = typer.Option(None, "--compare-2d", help="With --dimension 3: the output folder of the 2D study of the same kind (quick or full); the report adds a 2D-against-3D table."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes, one thread each (default: one per CPU)."),
