@@ -13,13 +13,14 @@ and a particle 5 mm away.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 
 import numpy as np
 import pytest
 
 import hydrojam.actuator.simulate as simulate_module
-from hydrojam.actuator.checkpoint import CHECKPOINT, CheckpointError, load_checkpoint
+from hydrojam.actuator.checkpoint import CHECKPOINT, CheckpointError, load_checkpoint, save_checkpoint
 from hydrojam.actuator.design import apply_overrides, default_design, write_design
 from hydrojam.actuator.model import build_model
 from hydrojam.actuator.results import ResultWriter
@@ -96,6 +97,7 @@ def test_a_run_stopped_on_its_path_goes_on_as_if_it_had_not_stopped(tmp_path, de
     rows = _history(tmp_path)
     assert [int(r["step"]) for r in rows] == list(range(len(reference.states)))
     assert len(list((tmp_path / "steps").glob("step_*.vtu"))) == len(reference.states)
+    assert result.timings["newton_iterations"] == reference.timings["newton_iterations"]
     assert metrics["provenance"]["resumed"][0]["state"] == 2
     assert metrics["provenance"]["resumed"][0]["s"] == pytest.approx(reference.states[2].s)
     assert not (tmp_path / CHECKPOINT).exists()  # removed with the results written
@@ -113,6 +115,9 @@ def test_a_run_stopped_in_the_release_goes_on_in_the_release(tmp_path, design, r
     assert result.stabilisation["release_rounds"] == reference.stabilisation["release_rounds"]
     assert metrics["stabilisation_released"] is True
     assert len(_history(tmp_path)) == len(reference.states)  # the released state replaced the stabilised one
+    # the work of the whole run, rejected attempts and the stopped part's rounds included
+    assert result.timings["newton_iterations"] == reference.timings["newton_iterations"]
+    assert ck.release.timings.iterations == ck.release.iterations
 
 
 def test_a_checkpoint_of_another_design_or_an_unreadable_one_is_not_resumed(tmp_path, design):
@@ -150,3 +155,18 @@ def test_hydrojam_run_goes_on_from_a_checkpoint_and_fresh_starts_over(tmp_path, 
     assert main(["run", str(design_file), "-o", str(out), "--no-vtu", "--fresh"]) == 0
     assert "going on" not in capsys.readouterr().err
     assert "resumed" not in json.loads((out / "metrics.json").read_text())["provenance"]
+
+
+def test_a_release_checkpoint_without_its_timings_still_counts_its_iterations(tmp_path, design, reference,
+                                                                             monkeypatch):
+    """A checkpoint written before the release's timings were kept (release.timings None) is
+    resumed, and the run's timings count the stopped rounds' iterations from its round list."""
+    _interrupted(tmp_path, design, stop_in_release=True, monkeypatch=monkeypatch)
+    model = build_model(design)
+    path = tmp_path / CHECKPOINT
+    ck = load_checkpoint(path, model.design, model.mesh.points.shape)
+    save_checkpoint(path, dataclasses.replace(ck, release=dataclasses.replace(ck.release, timings=None)))
+    ck, result, _ = _resumed(tmp_path, design)
+    assert ck.release.timings is None
+    assert result.timings["newton_iterations"] == reference.timings["newton_iterations"]
+    np.testing.assert_array_equal(result.final.x, reference.final.x)

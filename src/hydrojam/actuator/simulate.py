@@ -21,7 +21,7 @@ from hydrojam.actuator.metrics import RUN_FIELDS, branch_gap, time_to_fraction
 from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
 from hydrojam.actuator.stimulus import schedule_temperature
 from hydrojam.fem.linsolve import LinearSolver
-from hydrojam.fem.newton import NewtonOptions, NewtonStatus, minimize, negative_curvature
+from hydrojam.fem.newton import NewtonOptions, NewtonStatus, Timings, minimize, negative_curvature
 from hydrojam.fem.path import PathCheckpoint, PathOptions, first_unstable_s, solve_path
 from hydrojam.fem.terms import TimedTerm, ViscousStabilisation, by_name, lumped_volumes
 
@@ -402,18 +402,23 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
     solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: PARDISO's set-up costs 0.4 s
     its, scale, rounds, failed = 0, first_scale * stab.scale, [], False
     round_rtol = LOOSE_ROUND_RTOL if inexact else rtol
+    spent = Timings()  # the release's own work, kept in its checkpoints
     if resume is not None:
         x, its, scale, failed, rounds = np.array(resume.x, dtype=float), resume.iterations, resume.scale, \
             resume.failed, list(resume.rounds)
         round_rtol = rtol if resume.round_rtol is None else resume.round_rtol
         solver.restore_pattern(resume.solver_pattern)
         direct = False
+        # a checkpoint from before the release's timings were kept: its iterations, times unknown
+        spent.add(resume.timings if resume.timings is not None else Timings(iterations=resume.iterations))
+        timings.add(spent)
     start = len(rounds)
     if direct:
         stab.scale = 0.0
         res = minimize(terms(1.0), x, free, problem.force_scale, options.newton, solver)
         its += res.iterations
         timings.add(res.timings)
+        spent.add(res.timings)
         rounds.append((0.0, res.iterations, res.converged))
         if res.converged:
             return res.x, its, True, rounds
@@ -421,7 +426,7 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
     def done_round() -> None:
         if on_round is not None:
             on_round(ReleaseCheckpoint(np.array(x, dtype=float), its, scale, failed, tuple(rounds), 0.0,
-                                       solver.pattern, round_rtol if inexact else None))
+                                       solver.pattern, round_rtol if inexact else None, dataclasses.replace(spent)))
 
     for _ in range(max_rounds - start):
         stab.scale = scale
@@ -432,6 +437,7 @@ def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEAS
         res = minimize(ts, x, free, problem.force_scale, newton, solver)
         its += res.iterations
         timings.add(res.timings)
+        spent.add(res.timings)
         rounds.append((scale, res.iterations, res.converged))
         if not res.converged:
             ran_out = res.status is NewtonStatus.MAX_ITERATIONS
