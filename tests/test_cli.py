@@ -360,3 +360,22 @@ def test_non_finite_design_values_have_the_same_wording(tmp_path, capsys, text, 
     design.write_text(text)
     _one_error_line(*run(capsys, "run", str(design), "-o", str(tmp_path / "out")), f"{field}: must be a finite number")
     assert not (tmp_path / "out").exists()
+
+
+def test_running_points_in_the_release_say_how_far_it_has_gone():
+    """A sweep's running point at s = 1 shows its release's rounds, iterations and damping (a long
+    3D chamber spends hours there); one on its path shows s only."""
+    from hydrojam.actuator.checkpoint import ReleaseProgress
+    from hydrojam.cli import _running_text
+    from hydrojam.study.spec import study_from_dict
+    from hydrojam.study.sweep import RunningPoint
+
+    study = study_from_dict({"name": "two", "design": {"particle_layers": 1},
+                             "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [285, 295]}}]})
+    a, b = ((p,) for p in study.points())
+    text = _running_text([RunningPoint(a, 0.5, 42.0),
+                          RunningPoint(b, 1.0, 5400.0, ReleaseProgress(12, 1534, 100.0, 1800.0))])
+    on_path, in_release = text.split("; ", 1)
+    assert on_path == "temperature[0] stimulus.temperature=285: s = 0.500 after 42 s"
+    assert in_release.startswith("temperature[1] stimulus.temperature=295: s = 1.000 after 90 min, ")
+    assert in_release.endswith("releasing the stabilisation: 12 rounds, 1534 iterations, damping now 100x")

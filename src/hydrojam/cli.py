@@ -281,7 +281,7 @@ def run_design(
                  else f"schedule to t = {schedule[-1][0]:g} s")
         task = progress.add_task(label, total=1.0, info="", completed=0.0 if ck is None else ck.states[-1]["s"])
 
-        seen = set()
+        seen, last = set(), [""]
 
         def on_step(state):
             writer.step(state)
@@ -289,12 +289,17 @@ def run_design(
             info = f"angle {m['bending_angle_deg']:.1f} deg, iterations {state.iterations}"
             if state.time_s is not None:
                 info = f"t = {state.time_s:.4g} s, T = {state.T:.1f} K, " + info
+            last[0] = info
             if state.s >= 1.0:  # the stabilised end state first, then the released one (same index)
                 info += "; releasing the stabilisation..." if state.index not in seen else "; final state"
                 seen.add(state.index)
             progress.update(task, completed=state.s, info=info)
 
-        result = simulate(model, on_step=on_step, checkpoint=writer.checkpoint_path, resume=ck)
+        def on_release(release):
+            progress.update(task, info="; ".join(t for t in (last[0], _release_text(release)) if t))
+
+        result = simulate(model, on_step=on_step, checkpoint=writer.checkpoint_path, resume=ck,
+                          on_release=on_release)
     metrics = writer.finish(result)
     if not quiet:
         console.print(_run_summary(f"hydrojam run: {design_file.name} -> {out}", metrics))
@@ -452,11 +457,19 @@ def sweep(
 RUNNING_LOG_INTERVAL_S = 600.0
 
 
+def _release_text(progress) -> str:
+    """A release's progress (:class:`~hydrojam.actuator.checkpoint.ReleaseProgress`) in a few words."""
+    return (f"releasing the stabilisation: {progress.rounds} round{'s' if progress.rounds != 1 else ''}, "
+            f"{progress.iterations} iterations, damping now {progress.damping:.3g}x")
+
+
 def _running_text(running) -> str:
-    """The running points in a few words: label, s reached and run time."""
+    """The running points in a few words: label, s reached and run time, and at s = 1 the release's
+    progress."""
     from hydrojam._format import duration
 
-    return "; ".join(f"{_point_label(r)}: s = {r.s:.3f} after {duration(r.wall_time_s)}" for r in running)
+    return "; ".join(f"{_point_label(r)}: s = {r.s:.3f} after {duration(r.wall_time_s)}"
+                     + ("" if r.release is None else f", {_release_text(r.release)}") for r in running)
 
 
 def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False, after=None) -> None:

@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 import hydrojam.actuator.simulate as simulate_module
-from hydrojam.actuator.checkpoint import CHECKPOINT, CheckpointError, load_checkpoint, save_checkpoint
+from hydrojam.actuator.checkpoint import (CHECKPOINT, CheckpointError, ReleaseProgress, load_checkpoint,
+                                         release_progress, save_checkpoint)
 from hydrojam.actuator.design import apply_overrides, default_design, write_design
 from hydrojam.actuator.model import build_model
 from hydrojam.actuator.results import ResultWriter
@@ -170,3 +171,31 @@ def test_a_release_checkpoint_without_its_timings_still_counts_its_iterations(tm
     assert ck.release.timings is None
     assert result.timings["newton_iterations"] == reference.timings["newton_iterations"]
     np.testing.assert_array_equal(result.final.x, reference.final.x)
+
+
+def test_a_release_reports_its_progress_after_every_round(tmp_path, design, reference, monkeypatch):
+    """on_release sees every round the release goes on from (their count, the iterations so far,
+    the next round's damping); the checkpoint says the same to a reader in another process
+    (release_progress, the sweep's running points), where the wall time counts the rounds so far
+    too."""
+    from hydrojam.study.sweep import running_point
+
+    seen = []
+    result = simulate(build_model(design), on_release=seen.append)
+    rounds = result.stabilisation["release_rounds"]
+    assert result.stabilisation["released"] and len(rounds) >= 2
+    assert [p.rounds for p in seen] == list(range(1, len(rounds)))  # the last round ends it
+    assert [p.iterations for p in seen] == list(np.cumsum([r["iterations"] for r in rounds[:-1]]))
+    assert [p.damping for p in seen] == [r["scale"] for r in rounds[1:]]  # the next round's
+    assert all(b.seconds >= a.seconds >= 0 for a, b in zip(seen, seen[1:]))
+
+    _interrupted(tmp_path, design, stop_in_release=True, monkeypatch=monkeypatch)
+    got = release_progress(tmp_path / CHECKPOINT)
+    assert isinstance(got, ReleaseProgress)
+    assert (got.rounds, got.iterations, got.damping) == (1, rounds[0]["iterations"], rounds[1]["scale"])
+    point = running_point((), tmp_path)
+    assert point.s == 1.0 and point.release == got
+    assert point.wall_time_s == float(_history(tmp_path)[-1]["wall_time_s"]) + got.seconds
+    assert release_progress(tmp_path / "none.npz") is None
+    (tmp_path / "bad.npz").write_bytes(b"not a checkpoint")
+    assert release_progress(tmp_path / "bad.npz") is None

@@ -60,6 +60,32 @@ class ReleaseCheckpoint:
 
 
 @dataclass(frozen=True)
+class ReleaseProgress:
+    """How far a run's release at s = 1 has gone: the rounds so far, their Newton iterations (failed
+    rounds included), the next round's damping as a multiple of the design's [-] and the release's
+    wall time so far [s]."""
+
+    rounds: int
+    iterations: int
+    damping: float
+    seconds: float
+
+
+def release_progress(path: str | Path) -> ReleaseProgress | None:
+    """The release's progress recorded in the checkpoint at ``path`` (read without its arrays:
+    cheap while the run goes on, for any design); None where there is no checkpoint, it cannot be
+    read or its run has not begun the release."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+        r = meta["release"]
+        return None if r is None else ReleaseProgress(len(r["rounds"]), int(r["iterations"]), float(r["scale"]),
+                                                   float(r["seconds"]))
+    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile, EOFError):
+        return None
+
+
+@dataclass(frozen=True)
 class RunCheckpoint:
     """A run stopped after an accepted state. ``states``: the accepted states as plain dicts
     (:class:`~hydrojam.actuator.simulate.StepState`'s fields but x) with their positions ``xs``
@@ -167,5 +193,5 @@ def load_checkpoint(path: str | Path, design, shape: tuple[int, int]) -> RunChec
                          tuple(meta["resumed"]))
 
 
-__all__ = ["CHECKPOINT", "CheckpointError", "ReleaseCheckpoint", "RunCheckpoint", "design_digest",
-           "load_checkpoint", "save_checkpoint"]
+__all__ = ["CHECKPOINT", "CheckpointError", "ReleaseCheckpoint", "ReleaseProgress", "RunCheckpoint", "design_digest",
+           "load_checkpoint", "release_progress", "save_checkpoint"]

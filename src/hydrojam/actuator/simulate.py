@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hydrojam._io import finite_or_none
-from hydrojam.actuator.checkpoint import ReleaseCheckpoint, RunCheckpoint, design_digest, save_checkpoint
+from hydrojam.actuator.checkpoint import (ReleaseCheckpoint, ReleaseProgress, RunCheckpoint, design_digest,
+                                         save_checkpoint)
 from hydrojam.actuator.metrics import RUN_FIELDS, branch_gap, time_to_fraction
 from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
 from hydrojam.actuator.stimulus import schedule_temperature
@@ -202,12 +203,17 @@ def simulate(
     extra_terms: tuple = (),
     checkpoint: str | os.PathLike | None = None,
     resume: RunCheckpoint | None = None,
+    on_release: Callable[[ReleaseProgress], None] | None = None,
 ) -> SimulationResult:
     """Follow the stimulus from the as-prepared state (s = 0) to the target (s = 1).
 
     ``on_step(state)`` runs after every accepted step (including s = 0), e.g. to write results
     as they come; ``on_progress(s)`` after every attempt (a progress bar). Never raises on
-    non-convergence: the result says so and keeps the last converged state.
+    non-convergence: the result says so and keeps the last converged state. ``on_release(progress)``
+    after every round of the release that it goes on from (as its checkpoint; the round that
+    ends it is followed by the final state) with
+    :class:`~hydrojam.actuator.checkpoint.ReleaseProgress`: a 3D chamber's release can take
+    hours at s = 1.
 
     ``stabilisation``: viscous damping c = stabilisation x G_membrane / d [N/mm^3] of every
     node's motion within a load step (:class:`hydrojam.fem.terms.ViscousStabilisation`), released at
@@ -309,7 +315,10 @@ def simulate(
         t_release = time.perf_counter() - (0.0 if before is None else before.seconds)
 
         def on_round(ck: ReleaseCheckpoint) -> None:
-            save(dataclasses.replace(ck, seconds=time.perf_counter() - t_release))
+            seconds = time.perf_counter() - t_release
+            save(dataclasses.replace(ck, seconds=seconds))
+            if on_release is not None:
+                on_release(ReleaseProgress(len(ck.rounds), ck.iterations, ck.scale, seconds))
 
         x, its, released, rounds = _release(problem, stab, res.x, options, terms, res.timings,
                                             resume=before, on_round=on_round)

@@ -52,6 +52,7 @@ from typing import Any
 
 from hydrojam._io import atomic_path, finite_or_none, read_toml, write_text_atomic
 from hydrojam._validation import owner_model
+from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress, release_progress
 from hydrojam.actuator.design import Design, DesignError
 from hydrojam.actuator.metrics import STATE_METRICS, metric
 from hydrojam.study.spec import Point, Study, StudyError, write_study
@@ -89,6 +90,7 @@ __all__ = [
     "replica_table",
     "run_point",
     "point_progress",
+    "running_point",
     "run_sweep",
 ]
 
@@ -137,8 +139,6 @@ def _execute(point_fn: Callable[[Design, Path], dict], design: Design, point_dir
     """Worker side: clear the point's folder (but a run's checkpoint, which the run resumes), run
     ``point_fn``, write point.json last; never raises for the point's own failure (recorded as
     status "failed" with error.txt)."""
-    from hydrojam.actuator.checkpoint import CHECKPOINT
-
     folder = Path(point_dir)
     if (folder / CHECKPOINT).is_file():
         for name in ("point.json", "error.txt", "final.vtu"):
@@ -441,12 +441,26 @@ class PointOutcome:
 @dataclass(frozen=True)
 class RunningPoint:
     """A distinct design being computed: the study points sharing it, the load parameter ``s``
-    [-] of its run's last accepted state and the run's wall time so far [s] (a run resumed from
-    its checkpoint counts its earlier part)."""
+    [-] of its run's last accepted state, the run's wall time so far [s] (a run resumed from
+    its checkpoint counts its earlier part) and, once at s = 1, how far its release has gone
+    (None before, or where its checkpoint does not say)."""
 
     points: tuple[Point, ...]
     s: float
     wall_time_s: float
+    release: ReleaseProgress | None = None
+
+
+def running_point(points: tuple[Point, ...], point_dir: str | os.PathLike) -> RunningPoint | None:
+    """The progress of the run in ``point_dir``: from its history.csv (:func:`point_progress`) and,
+    at s = 1, its checkpoint's release (the wall time then counts the release's rounds so far);
+    None where it has no accepted state yet."""
+    progress = point_progress(point_dir)
+    if progress is None:
+        return None
+    s, wall = progress
+    release = release_progress(Path(point_dir) / CHECKPOINT) if s >= 1.0 else None
+    return RunningPoint(points, s, wall + (0.0 if release is None else release.seconds), release)
 
 
 def point_progress(point_dir: str | os.PathLike) -> tuple[float, float] | None:
@@ -634,9 +648,9 @@ def _watch_running(groups, order, out, records, on_running, interval_s, since) -
                         continue
                 except OSError:
                     continue
-                progress = point_progress(folder)
-                if progress is not None:
-                    running.append(RunningPoint(tuple(groups[key]), *progress))
+                point = running_point(tuple(groups[key]), folder)
+                if point is not None:
+                    running.append(point)
             if not stop.is_set():
                 on_running(running, len(records), len(groups))
 
