@@ -749,6 +749,49 @@ _FILE_SYSTEM_ERRORS = frozenset(
 )
 
 
+@app.command()
+def status(
+    out: Path = typer.Argument(..., help="Output folder of `hydrojam sweep`, `reproduce`, `design-map`, `run --replicas` or `run`."),
+) -> None:
+    """Where an output folder stands, read from its files (nothing runs): each point of its study
+    (or the run) finished, failed, unfinished (the s reached; at s = 1 how far the release has
+    gone) or not started, and when it was last written. A run going on in another process shows
+    as unfinished. Rerun the command that made the folder to go on. Exit status 0, 2 for a folder
+    that is not hydrojam's.
+    """
+    import time
+
+    from hydrojam._format import duration
+    from hydrojam.study.status import StatusError, folder_status
+
+    if not out.is_dir():
+        raise InputError(f"{out}: no such folder")
+    try:
+        st = folder_status(out)
+    except StatusError as err:
+        raise InputError(str(err)) from None
+    now = time.time()
+    table = Table(title=f"{st.kind} {st.name} ({out})")
+    for name, justify in (("point", "left"), ("state", "left"), ("s", "right"), ("angle [deg]", "right"),
+                          ("run time", "right"), ("written", "right"), ("release / error", "left")):
+        table.add_column(name, justify=justify)
+    colours = {"ok": "green", "not_converged": "yellow", "failed": "red", "unfinished": "cyan"}
+    for r in st.runs:
+        label = _point_label(r) if r.points else st.name
+        state = r.state.replace("_", " ")
+        table.add_row(label, f"[{colours[r.state]}]{state}[/]" if r.state in colours else state,
+                      "" if r.s is None else f"{r.s:.3f}",
+                      "" if r.bending_angle_deg is None else f"{r.bending_angle_deg:.2f}",
+                      "" if r.wall_time_s is None else duration(r.wall_time_s),
+                      "" if r.updated is None else f"{duration(max(now - r.updated, 0.0))} ago",
+                      r.error or ("" if r.release is None else
+                                  f"{r.release.rounds} rounds, {r.release.iterations} iterations, "
+                                  f"damping {r.release.damping:.3g}x"))
+    console = Console()
+    console.print(table)
+    console.print(", ".join(f"{n} {state.replace('_', ' ')}" for state, n in st.counts().items()))
+
+
 def _file_system_error(err: OSError) -> str | None:
     """One line for a file-system error, naming the path ("afile/sub: Not a directory"), or None
     for another OSError (a bug, a network error: left to propagate)."""

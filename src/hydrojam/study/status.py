@@ -1,0 +1,161 @@
+"""Where an output folder stands, read from its files without running anything (`hydrojam
+status OUT`): for a study (a sweep, `reproduce`, `run --replicas`: ``OUT/study.toml``) each
+distinct design finished, stopped or unfinished (where its checkpoint left it: s, the release's
+rounds) or not started; for one run (`hydrojam run`) the same for the run. A long 3D study goes
+on over several working sessions; this says what is left before it is started again.
+
+Read only: a run going on in another process is seen as unfinished, at its last written state.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress
+from hydrojam.study.spec import Point, StudyError, load_study
+from hydrojam.study.sweep import running_point
+
+__all__ = ["FolderStatus", "RunStatus", "StatusError", "folder_status"]
+
+#: the states of a run, in the order a summary counts them
+STATES = ("ok", "not_converged", "failed", "unfinished", "not started")
+
+
+class StatusError(ValueError):
+    """The folder is neither a study's nor a run's output folder (or its study.toml is unreadable)."""
+
+
+@dataclass(frozen=True)
+class RunStatus:
+    """One distinct design of a study (``points``: the study points sharing it; empty for a
+    single run), or the run of a run folder.
+
+    ``state``: ``ok`` / ``not_converged`` (finished: point.json or metrics.json), ``failed``
+    (point.json; a stopped run keeps its checkpoint and goes on from it), ``unfinished`` (a
+    checkpoint or history.csv and no outcome: stopped, or running in another process) or
+    ``not started``. ``s`` [-], ``bending_angle_deg`` [deg] and ``wall_time_s`` [s]: the
+    outcome's where finished, else the last accepted state's (at s = 1 the stabilised state's,
+    the wall time then counting the release's rounds so far); ``release``: how far the release
+    at s = 1 has gone (unfinished runs only); ``updated``: when its folder was last written [s
+    since the epoch]; ``error``: a failed run's reason."""
+
+    key: str
+    points: tuple[Point, ...]
+    state: str
+    s: float | None = None
+    bending_angle_deg: float | None = None
+    wall_time_s: float | None = None
+    release: ReleaseProgress | None = None
+    updated: float | None = None
+    error: str | None = None
+
+
+@dataclass(frozen=True)
+class FolderStatus:
+    """``kind``: "study" or "run"; ``name``: the study's name, or the run folder's; ``runs``: in
+    the study's order."""
+
+    kind: str
+    name: str
+    runs: tuple[RunStatus, ...]
+
+    def counts(self) -> dict[str, int]:
+        """How many runs are in each state (:data:`STATES`), the empty ones left out."""
+        return {st: n for st in STATES if (n := sum(r.state == st for r in self.runs))}
+
+
+def _read_json(path: Path) -> dict | None:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def _last_state(folder: Path) -> dict | None:
+    """The last row of ``folder``/history.csv (the last accepted state), or None."""
+    try:
+        rows = list(csv.DictReader(io.StringIO((folder / "history.csv").read_text(encoding="utf-8"))))
+    except (OSError, ValueError, csv.Error):
+        return None
+    return rows[-1] if rows else None
+
+
+def _number(value) -> float | None:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def _updated(folder: Path) -> float | None:
+    times = []
+    for name in ("point.json", "metrics.json", CHECKPOINT, "history.csv"):
+        try:
+            times.append((folder / name).stat().st_mtime)
+        except OSError:
+            pass
+    return max(times, default=None)
+
+
+def _status(folder: Path, key: str, points: tuple[Point, ...], outcome: dict | None) -> RunStatus:
+    """The status of the run in ``folder`` with ``outcome`` (point.json's fields: status, error,
+    metrics, wall_time_s) where it ended."""
+    updated = _updated(folder)
+    if outcome is not None and outcome.get("status") in ("ok", "not_converged"):
+        metrics = outcome.get("metrics") or {}
+        s = _number(metrics.get("s_reached"))
+        return RunStatus(key, points, outcome["status"], 1.0 if s is None and outcome["status"] == "ok" else s,
+                         _number(metrics.get("bending_angle_deg")), _number(outcome.get("wall_time_s")),
+                         None, updated)
+    error = None if outcome is None else outcome.get("error")
+    state = "failed" if outcome is not None else "unfinished"
+    running = running_point(points, folder)
+    if running is None:
+        if not (folder / CHECKPOINT).is_file():
+            state = "failed" if outcome is not None else "not started"
+        return RunStatus(key, points, state, updated=updated, error=error)
+    last = _last_state(folder) or {}
+    return RunStatus(key, points, state, running.s, _number(last.get("bending_angle_deg")), running.wall_time_s,
+                     running.release, updated, error)
+
+
+def _run_outcome(folder: Path) -> dict | None:
+    """A run folder's outcome in point.json's terms, from its metrics.json (None: not finished)."""
+    if (folder / CHECKPOINT).is_file():  # run again into the same folder: going on
+        return None
+    metrics = _read_json(folder / "metrics.json")
+    if metrics is None:
+        return None
+    return {"status": "ok" if metrics.get("converged") else "not_converged", "metrics": metrics,
+            "wall_time_s": metrics.get("wall_time_s")}
+
+
+def folder_status(out: str | os.PathLike) -> FolderStatus:
+    """Where the output folder ``out`` stands: a study's (``OUT/study.toml``, its points in
+    ``OUT/points/<key>/``) or a run's (``OUT/design.toml`` with history.csv, checkpoint.npz or
+    metrics.json). Raises :class:`StatusError` for any other folder."""
+    out = Path(out)
+    if (out / "study.toml").is_file():
+        try:
+            study = load_study(out / "study.toml")
+        except StudyError as err:
+            raise StatusError(str(err)) from None
+        groups: dict[str, list[Point]] = {}
+        for p in study.points():
+            groups.setdefault(p.key, []).append(p)
+        runs = []
+        for key, points in groups.items():
+            folder = out / "points" / key
+            runs.append(_status(folder, key, tuple(points), _read_json(folder / "point.json")))
+        return FolderStatus("study", study.name, tuple(runs))
+    if (out / "design.toml").is_file() and any((out / n).is_file()
+                                               for n in ("history.csv", CHECKPOINT, "metrics.json")):
+        return FolderStatus("run", out.name, (_status(out, "", (), _run_outcome(out)),))
+    raise StatusError(f"{out}: not an output folder of hydrojam (no study.toml, and no design.toml with a run's "
+                      "history.csv, checkpoint.npz or metrics.json)")

@@ -1,0 +1,120 @@
+"""Where an output folder stands (hydrojam.study.status, `hydrojam status OUT`), read from the
+files a sweep and a run write: point.json, metrics.json, history.csv and checkpoint.npz. The
+folders here are written by hand in those files' formats (the checkpoint by save_checkpoint), so
+that every state is covered without running a simulation; the formats themselves are tested with
+real runs in tests/actuator/test_checkpoint.py and tests/study/test_sweep.py."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseCheckpoint, RunCheckpoint, save_checkpoint
+from hydrojam.actuator.design import default_design, write_design
+from hydrojam.cli import main
+from hydrojam.fem.newton import Timings
+from hydrojam.fem.path import PathCheckpoint
+from hydrojam.study.spec import study_from_dict, write_study
+from hydrojam.study.status import StatusError, folder_status
+
+HISTORY = "step,s,bending_angle_deg,wall_time_s\n0,0.0,0.0,0.1\n1,{s},{angle},{wall}\n"
+
+
+def _checkpoint(path, release_rounds=None, seconds=0.0):
+    """A checkpoint whose release has gone ``release_rounds`` rounds (None: not begun)."""
+    x = np.zeros((3, 2))
+    release = None if release_rounds is None else ReleaseCheckpoint(
+        x, sum(n for _, n, _ in release_rounds), 10.0, False, tuple(release_rounds), seconds)
+    save_checkpoint(path, RunCheckpoint("digest", ({"index": 0, "s": 1.0},), x[None], PathCheckpoint(
+        x.ravel(), 1.0, 0.05, 100.0, (), 0, Timings()), release, 100.0, {}, 0.0))
+
+
+@pytest.fixture
+def study_folder(tmp_path):
+    """A study of five points: ok, failed, unfinished on its path, unfinished in its release, not started."""
+    study = study_from_dict({"name": "five", "design": {"particle_layers": 1, "mesh": {"size": 4.0}},
+                             "sweep": [{"name": "temperature",
+                                        "vary": {"stimulus.temperature": [275, 280, 285, 290, 295]}}]})
+    out = tmp_path / "out"
+    (out / "points").mkdir(parents=True)
+    write_study(out / "study.toml", study)
+    keys = [p.key for p in study.points()]
+    folders = [out / "points" / k for k in keys]
+    for f in folders[:4]:
+        f.mkdir()
+    (folders[0] / "point.json").write_text(json.dumps(
+        {"key": keys[0], "status": "ok", "error": None, "wall_time_s": 61.5,
+         "metrics": {"bending_angle_deg": 43.96, "s_reached": 1.0}}))
+    (folders[1] / "point.json").write_text(json.dumps(
+        {"key": keys[1], "status": "failed", "error": "stopped after state 3", "wall_time_s": 3.0, "metrics": None}))
+    (folders[1] / "history.csv").write_text(HISTORY.format(s=0.25, angle=5.0, wall=2.0))
+    _checkpoint(folders[1] / CHECKPOINT)
+    (folders[2] / "history.csv").write_text(HISTORY.format(s=0.5, angle=20.0, wall=42.0))
+    _checkpoint(folders[2] / CHECKPOINT)
+    (folders[3] / "history.csv").write_text(HISTORY.format(s=1.0, angle=38.5, wall=100.0))
+    _checkpoint(folders[3] / CHECKPOINT, [(100.0, 120, True), (10.0, 200, False), (100.0, 80, True)], seconds=900.0)
+    return out, keys
+
+
+def test_a_study_folder_reads_as_each_points_state(study_folder):
+    out, keys = study_folder
+    st = folder_status(out)
+    assert (st.kind, st.name) == ("study", "five")
+    assert [r.key for r in st.runs] == keys
+    ok, failed, path, release, fresh = st.runs
+    assert (ok.state, ok.s, ok.bending_angle_deg, ok.wall_time_s, ok.release) == ("ok", 1.0, 43.96, 61.5, None)
+    assert (failed.state, failed.s, failed.error) == ("failed", 0.25, "stopped after state 3")
+    assert (path.state, path.s, path.bending_angle_deg, path.wall_time_s, path.release) == \
+        ("unfinished", 0.5, 20.0, 42.0, None)
+    assert (release.state, release.s, release.bending_angle_deg) == ("unfinished", 1.0, 38.5)
+    assert (release.release.rounds, release.release.iterations, release.release.damping) == (3, 400, 10.0)
+    assert release.wall_time_s == 100.0 + 900.0  # the stabilised state's, then the release's rounds
+    assert (fresh.state, fresh.s, fresh.updated) == ("not started", None, None)
+    assert all(r.updated is not None for r in st.runs[:4])
+    assert st.counts() == {"ok": 1, "failed": 1, "unfinished": 2, "not started": 1}
+    assert [r.points[0].values["stimulus.temperature"] for r in st.runs] == [275, 280, 285, 290, 295]
+
+
+def test_a_run_folder_reads_finished_or_unfinished(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    write_design(out / "design.toml", default_design())
+    (out / "history.csv").write_text(HISTORY.format(s=0.75, angle=30.0, wall=20.0))
+    _checkpoint(out / CHECKPOINT)
+    (run,) = folder_status(out).runs
+    assert (run.state, run.s, run.bending_angle_deg, run.points) == ("unfinished", 0.75, 30.0, ())
+
+    (out / CHECKPOINT).unlink()  # removed when the run ends, with metrics.json written
+    (out / "metrics.json").write_text(json.dumps({"converged": False, "s_reached": 0.75, "bending_angle_deg": 30.0,
+                                                  "wall_time_s": 20.5}))
+    st = folder_status(out)
+    assert (st.kind, st.name) == ("run", "run")
+    assert [(r.state, r.s, r.wall_time_s) for r in st.runs] == [("not_converged", 0.75, 20.5)]
+
+
+def test_other_folders_are_refused(tmp_path):
+    with pytest.raises(StatusError, match="not an output folder of hydrojam"):
+        folder_status(tmp_path)
+    write_design(tmp_path / "design.toml", default_design())  # `hydrojam init` alone: no run yet
+    with pytest.raises(StatusError, match="not an output folder"):
+        folder_status(tmp_path)
+    (tmp_path / "study.toml").write_text("name = 3\n")
+    with pytest.raises(StatusError, match="study.toml"):
+        folder_status(tmp_path)
+
+
+def test_cli_status_prints_the_table_and_the_counts(study_folder, capsys, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "200")
+    out, _ = study_folder
+    assert main(["status", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "1 ok, 1 failed, 2 unfinished, 1 not started" in text
+    assert "3 rounds, 400 iterations, damping 10x" in text and "stopped after state 3" in text
+    assert "43.96" in text and "0.500" in text and "not started" in text
+
+    for bad, why in ((out / "points" / "none", "no such folder"), (out / "points", "not an output folder")):
+        assert main(["status", str(bad)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and why in err[0], err
