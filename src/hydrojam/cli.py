@@ -765,7 +765,7 @@ def status(
     from hydrojam.study.status import StatusError, folder_status
 
     if not out.is_dir():
-        raise InputError(f"{out}: no such folder")
+        raise InputError(f"{out}: {'not a folder' if out.exists() else 'no such folder'}")
     try:
         st = folder_status(out)
     except StatusError as err:

@@ -114,7 +114,8 @@ def test_cli_status_prints_the_table_and_the_counts(study_folder, capsys, monkey
     assert "3 rounds, 400 iterations, damping 10x" in text and "stopped after state 3" in text
     assert "43.96" in text and "0.500" in text and "not started" in text
 
-    for bad, why in ((out / "points" / "none", "no such folder"), (out / "points", "not an output folder")):
+    for bad, why in ((out / "points" / "none", "no such folder"), (out / "study.toml", "not a folder"),
+                     (out / "points", "not an output folder")):
         assert main(["status", str(bad)]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and why in err[0], err
