@@ -749,9 +749,18 @@ _FILE_SYSTEM_ERRORS = frozenset(
 )
 
 
+def _measured(metrics: dict | None) -> str:
+    """A release's current state in a few words (``hydrojam status --measure``)."""
+    if metrics is None:
+        return ""
+    return (f"; now {metrics['bending_angle_deg']:.2f} deg, tip ({metrics['tip_dx_mm']:.1f}, "
+            f"{metrics['tip_dz_mm']:.1f}) mm")
+
+
 @app.command()
 def status(
     out: Path = typer.Argument(..., help="Output folder of `hydrojam sweep`, `reproduce`, `design-map`, `run --replicas` or `run`."),
+    measure: bool = typer.Option(False, "--measure", help="Also the angle and tip of every unfinished release's current state (builds its model: up to a minute a 3D point)."),
 ) -> None:
     """Where an output folder stands, read from its files (nothing runs): each point of its study
     (or the run) finished, failed, unfinished (the s reached; at s = 1 how far the release has
@@ -767,7 +776,7 @@ def status(
     if not out.is_dir():
         raise InputError(f"{out}: {'not a folder' if out.exists() else 'no such folder'}")
     try:
-        st = folder_status(out)
+        st = folder_status(out, measure=measure)
     except StatusError as err:
         raise InputError(str(err)) from None
     now = time.time()
@@ -786,7 +795,7 @@ def status(
                       "" if r.updated is None else f"{duration(max(now - r.updated, 0.0))} ago",
                       r.error or ("" if r.release is None else
                                   f"{r.release.rounds} rounds, {r.release.iterations} iterations, "
-                                  f"damping {r.release.damping:.3g}x"))
+                                  f"damping {r.release.damping:.3g}x" + _measured(r.release_metrics)))
     console = Console()
     console.print(table)
     console.print(", ".join(f"{n} {state.replace('_', ' ')}" for state, n in st.counts().items()))

@@ -199,3 +199,28 @@ def test_a_release_reports_its_progress_after_every_round(tmp_path, design, refe
     assert release_progress(tmp_path / "none.npz") is None
     (tmp_path / "bad.npz").write_bytes(b"not a checkpoint")
     assert release_progress(tmp_path / "bad.npz") is None
+
+
+def test_a_release_under_way_is_measured_from_its_folder(tmp_path, design, reference, monkeypatch, capsys):
+    """`hydrojam status --measure` measures the release's current centre: the checkpoint's
+    release positions on the model of the folder's design.toml, the same metrics as measuring
+    them on the run's own model; nothing for a run on its path."""
+    from hydrojam.actuator.model import measure
+    from hydrojam.study.status import folder_status, release_metrics
+
+    _interrupted(tmp_path / "path", design, stop_at_state=3)
+    assert release_metrics(tmp_path / "path") is None
+    assert folder_status(tmp_path / "path", measure=True).runs[0].release_metrics is None
+
+    _interrupted(tmp_path / "rel", design, stop_in_release=True, monkeypatch=monkeypatch)
+    model = build_model(design)
+    ck = load_checkpoint(tmp_path / "rel" / CHECKPOINT, model.design, model.mesh.points.shape)
+    expected = measure(model, ck.release.x)
+    got = release_metrics(tmp_path / "rel")
+    assert got == expected
+    assert got["bending_angle_deg"] != ck.states[-1]["metrics"]["bending_angle_deg"]  # it moved in round 1
+    (run,) = folder_status(tmp_path / "rel", measure=True).runs
+    assert run.state == "unfinished" and run.release_metrics == expected
+    monkeypatch.setenv("COLUMNS", "250")
+    assert main(["status", str(tmp_path / "rel"), "--measure"]) == 0
+    assert f"now {expected['bending_angle_deg']:.2f} deg" in capsys.readouterr().out

@@ -10,6 +10,7 @@ Read only: a run going on in another process is seen as unfinished, at its last 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import os
@@ -20,7 +21,7 @@ from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress
 from hydrojam.study.spec import Point, StudyError, load_study
 from hydrojam.study.sweep import running_point
 
-__all__ = ["FolderStatus", "RunStatus", "StatusError", "folder_status"]
+__all__ = ["FolderStatus", "RunStatus", "StatusError", "folder_status", "release_metrics"]
 
 #: the states of a run, in the order a summary counts them
 STATES = ("ok", "not_converged", "failed", "unfinished", "not started")
@@ -42,7 +43,8 @@ class RunStatus:
     outcome's where finished, else the last accepted state's (at s = 1 the stabilised state's,
     the wall time then counting the release's rounds so far); ``release``: how far the release
     at s = 1 has gone (unfinished runs only); ``updated``: when its folder was last written [s
-    since the epoch]; ``error``: a failed run's reason."""
+    since the epoch]; ``error``: a failed run's reason; ``release_metrics``: the state metrics of
+    the release's current centre (with ``measure``, :func:`folder_status`), else None."""
 
     key: str
     points: tuple[Point, ...]
@@ -53,6 +55,7 @@ class RunStatus:
     release: ReleaseProgress | None = None
     updated: float | None = None
     error: str | None = None
+    release_metrics: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -125,6 +128,24 @@ def _status(folder: Path, key: str, points: tuple[Point, ...], outcome: dict | N
                      running.release, updated, error)
 
 
+def release_metrics(folder: str | os.PathLike) -> dict | None:
+    """The state metrics (:func:`~hydrojam.actuator.model.measure`: bending angle [deg], tip [mm],
+    ...) of the current centre of the release in ``folder``'s checkpoint, from the design in its
+    design.toml (the model is built: seconds in 2D, up to a minute for a long 3D chamber). None
+    where there is no release under way or the checkpoint does not fit the design."""
+    from hydrojam.actuator.checkpoint import CheckpointError, load_checkpoint
+    from hydrojam.actuator.design import DesignError, load_design
+    from hydrojam.actuator.model import build_model, measure
+
+    folder = Path(folder)
+    try:
+        model = build_model(load_design(folder / "design.toml"))
+        ck = load_checkpoint(folder / CHECKPOINT, model.design, model.mesh.points.shape)
+    except (OSError, DesignError, CheckpointError):
+        return None
+    return None if ck.release is None else measure(model, ck.release.x)
+
+
 def _run_outcome(folder: Path) -> dict | None:
     """A run folder's outcome in point.json's terms, from its metrics.json (None: not finished)."""
     if (folder / CHECKPOINT).is_file():  # run again into the same folder: going on
@@ -136,11 +157,21 @@ def _run_outcome(folder: Path) -> dict | None:
             "wall_time_s": metrics.get("wall_time_s")}
 
 
-def folder_status(out: str | os.PathLike) -> FolderStatus:
+def folder_status(out: str | os.PathLike, measure: bool = False) -> FolderStatus:
     """Where the output folder ``out`` stands: a study's (``OUT/study.toml``, its points in
     ``OUT/points/<key>/``) or a run's (``OUT/design.toml`` with history.csv, checkpoint.npz or
-    metrics.json). Raises :class:`StatusError` for any other folder."""
-    out = Path(out)
+    metrics.json). ``measure``: also the metrics of every unfinished release's current centre
+    (:func:`release_metrics`). Raises :class:`StatusError` for any other folder."""
+    st = _folder_status(Path(out))
+    if not measure:
+        return st
+    folders = {r.key: Path(out) / "points" / r.key if st.kind == "study" else Path(out) for r in st.runs}
+    return dataclasses.replace(st, runs=tuple(
+        dataclasses.replace(r, release_metrics=release_metrics(folders[r.key]))
+        if r.state == "unfinished" and r.release is not None else r for r in st.runs))
+
+
+def _folder_status(out: Path) -> FolderStatus:
     if (out / "study.toml").is_file():
         try:
             study = load_study(out / "study.toml")
