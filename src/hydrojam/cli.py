@@ -660,10 +660,16 @@ def assess_design(
         loads = loads_from_dict(data, names)
     except AssessError as err:
         raise InputError(str(err)) from None
+    from hydrojam.actuator.design import DesignError
+    from hydrojam.assess.assessment import assess, check_assessable
+
+    try:
+        check_assessable(design)
+    except DesignError as err:
+        raise InputError(str(err)) from None
     if out.exists() and not out.is_dir():
         raise InputError(f"--out: {out} exists and is not a folder")
     make_folder(out)
-    from hydrojam.assess.assessment import assess
     from hydrojam.assess.report import write_report
 
     console = Console(stderr=True)

@@ -103,3 +103,26 @@ def test_design_map_runs_as_a_cached_sweep(tmp_path):
 def test_design_map_refuses_bad_ranges_before_any_work(tmp_path, design_file, capsys, args, words):
     err = _refused("design-map", design_file, tmp_path, capsys, *args)
     assert words in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("command", ["assess", "design-map"])
+def test_a_3d_design_is_refused_before_any_work(tmp_path, design_file, capsys, command, monkeypatch):
+    """The assessment is built for 2D (the empty chamber, the vacuum load, the membrane's contact
+    pressure): a 3D design is refused before meshing, not after its actuation (it used to end in
+    a traceback from the 2D contact pressure after the 3D actuation had run), from Python too."""
+    import hydrojam.assess.assessment as assessment_module
+    from hydrojam.actuator.design import DesignError
+    from hydrojam.assess.design_map import design_map
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("a model was built")
+
+    monkeypatch.setattr(assessment_module, "build_model", no_work)
+    err = _refused(command, design_file, tmp_path, capsys, "--set", "dimension=3")
+    assert "dimension: allowed for an assessment: 2 (got 3)" in err and len(err.strip().splitlines()) == 1
+    three = Design(dimension=3, particle_layers=1, mesh={"size": 4.0})
+    with pytest.raises(DesignError, match="dimension: allowed for an assessment: 2"):
+        assess(three)
+    with pytest.raises(DesignError, match="dimension: allowed for an assessment: 2"):
+        design_map(three, [2.0], [0.023], tmp_path / "map")
+    assert not (tmp_path / "map").exists()

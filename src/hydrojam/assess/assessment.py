@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hydrojam._io import finite_or_none
-from hydrojam.actuator.design import Design
+from hydrojam.actuator.design import Design, DesignError
 from hydrojam.actuator.model import build_model, check_supported
 from hydrojam.actuator.simulate import simulate
 from hydrojam.assess.chamber import actuator_structure, blocked_actuation, vacuum_jamming
@@ -58,6 +58,16 @@ def _ratio(a, b):
     return None if a is None or b is None else a / b
 
 
+def check_assessable(design: Design) -> None:
+    """Refuse, before any work, a design that :func:`assess` cannot assess (DesignError naming the
+    field): a 3D one, since the empty chamber, the vacuum's outer surface and the contact pressure
+    on the membrane are built for 2D only (docs/assess.md, "What is left")."""
+    check_supported(design)
+    if design.dimension != 2:
+        raise DesignError(f"dimension: allowed for an assessment: 2 (got {design.dimension}): the empty chamber, "
+                          "the vacuum load and the contact pressure on the membrane are built in 2D only")
+
+
 def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], None] | None = None) -> Assessment:
     """Assess ``design`` under ``loads``: actuate it (s = 1), then from the actuated and from the
     as-prepared (s = 0) state a tip load-deflection curve in +x and -x up to ``loads.max_force``
@@ -66,8 +76,9 @@ def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], 
     contact pressure on the membrane against the gel's confined swelling pressure); and how fast:
     the swollen particles' diffusion-limited swelling time (and, for a design with a temperature
     schedule, the run's time to 90% of its final angle).
-    ``on_progress(message)`` says what starts (the long parts take minutes)."""
-    check_supported(design)
+    ``on_progress(message)`` says what starts (the long parts take minutes). Raises DesignError
+    for a design it cannot assess (:func:`check_assessable`) before any work."""
+    check_assessable(design)
     say = on_progress or (lambda message: None)
     out = Assessment(design.resolved(), loads)
     v = out.values

@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 
 from hydrojam._io import atomic_path, write_text_atomic
 from hydrojam.actuator.design import Design
-from hydrojam.assess.assessment import assess
+from hydrojam.assess.assessment import assess, check_assessable
 from hydrojam.assess.spec import Loads
 from hydrojam.study.spec import Study, SweepSpec
 from hydrojam.study.sweep import run_sweep
@@ -44,7 +44,9 @@ def design_map(base: Design, thicknesses, shear_moduli, out: str | os.PathLike, 
     """Run the map over ``thicknesses`` [mm] (the membrane's side walls, t0) x ``shear_moduli``
     [MPa] (the membrane's G; Ecoflex 00-30 0.023, Dragon Skin 30-class about 0.2) from ``base``
     into ``out`` (a study folder: cached and resumable). Returns one row per point: t0, G and
-    :data:`MAP_VALUES` (None where a point failed), and writes ``out``/design_map.png."""
+    :data:`MAP_VALUES` (None where a point failed), and writes ``out``/design_map.png. Raises
+    DesignError for a base design that cannot be assessed (a 3D one), before anything runs."""
+    check_assessable(base)
     study = Study(name="design_map", base=base, sweeps=[SweepSpec(
         name="membrane", vary={THICKNESS: [float(t) for t in thicknesses], MODULUS: [float(g) for g in shear_moduli]})])
     run_sweep(study, out, workers=workers, on_point=on_point, point_fn=map_point)
