@@ -792,7 +792,7 @@ def status(
         table.add_column(name, justify=justify)
     colours = {"ok": "green", "not_converged": "yellow", "failed": "red", "unfinished": "cyan"}
     for r in st.runs:
-        label = _point_label(r) if r.points else st.name
+        label = _point_label(r) if r.points else (f"points/{r.key} (not in study.toml)" if r.key else st.name)
         state = r.state.replace("_", " ")
         table.add_row(label, f"[{colours[r.state]}]{state}[/]" if r.state in colours else state,
                       "" if r.s is None else f"{r.s:.3f}",

@@ -77,6 +77,23 @@ def test_a_study_folder_reads_as_each_points_state(study_folder):
     assert [r.points[0].values["stimulus.temperature"] for r in st.runs] == [275, 280, 285, 290, 295]
 
 
+def test_point_folders_of_an_earlier_sweep_are_listed_too(study_folder, capsys, monkeypatch):
+    """`reproduce --sweep X` into a folder rewrites study.toml with sweep X only: the points of the
+    sweeps run before are still there, listed after the study's under their folder's key."""
+    out, keys = study_folder
+    earlier = out / "points" / "0123456789abcdef"
+    earlier.mkdir()
+    (earlier / "point.json").write_text(json.dumps({"status": "ok", "wall_time_s": 9.0,
+                                                    "metrics": {"bending_angle_deg": 12.0, "s_reached": 1.0}}))
+    (out / "points" / f"{keys[2]}.lock").write_text("123")  # not a folder: not a point
+    st = folder_status(out)
+    assert [r.key for r in st.runs] == [*keys, earlier.name]
+    assert (st.runs[-1].state, st.runs[-1].points, st.runs[-1].bending_angle_deg) == ("ok", (), 12.0)
+    monkeypatch.setenv("COLUMNS", "200")
+    assert main(["status", str(out)]) == 0
+    assert f"points/{earlier.name} (not in study.toml)" in capsys.readouterr().out
+
+
 def test_a_run_folder_reads_finished_or_unfinished(tmp_path):
     out = tmp_path / "run"
     out.mkdir()

@@ -34,7 +34,8 @@ class StatusError(ValueError):
 @dataclass(frozen=True)
 class RunStatus:
     """One distinct design of a study (``points``: the study points sharing it; empty for a
-    single run), or the run of a run folder.
+    single run, and for a point folder of the study's output folder that its study.toml does not
+    name: one of sweeps run earlier into the same folder), or the run of a run folder.
 
     ``state``: ``ok`` / ``not_converged`` (finished: point.json or metrics.json), ``failed``
     (point.json; a stopped run keeps its checkpoint and goes on from it), ``unfinished`` (a
@@ -184,6 +185,9 @@ def _folder_status(out: Path) -> FolderStatus:
         for key, points in groups.items():
             folder = out / "points" / key
             runs.append(_status(folder, key, tuple(points), _read_json(folder / "point.json")))
+        # a rerun with fewer sweeps (`reproduce --sweep ...`) rewrites study.toml with those only
+        others = sorted(f for f in (out / "points").glob("*") if f.is_dir() and f.name not in groups)
+        runs += [_status(f, f.name, (), _read_json(f / "point.json")) for f in others]
         return FolderStatus("study", study.name, tuple(runs))
     if (out / "design.toml").is_file() and any((out / n).is_file()
                                                for n in ("history.csv", CHECKPOINT, "metrics.json")):
