@@ -100,3 +100,29 @@ def test_the_3d_study(quick, name, mesh, distinct):
 def test_other_dimensions_are_refused(dimension):
     with pytest.raises(ValueError, match=r"dimension: allowed 2 or 3"):
         pstudy.paper_study(True, dimension=dimension)
+
+
+def test_the_kept_3d_records_restore_into_the_quick_3d_study():
+    """docs/data/paper-3d-quick/ keeps the finished quick 3D points' records so that, copied into
+    OUT/points/<key>/, `reproduce` loads them: each folder's key must be the key of the study's
+    point with that many layers, its design.toml that point's design, and its point.json a
+    finished record (what the sweep's cache reads)."""
+    from pathlib import Path
+
+    from hydrojam.actuator.design import load_design
+    from hydrojam.study.spec import design_key
+    from hydrojam.study.sweep import _read_record
+
+    data = Path(__file__).resolve().parents[2] / "docs" / "data" / "paper-3d-quick"
+    folders = sorted(f for f in data.iterdir() if f.is_dir())
+    assert folders
+    points = {p.values["particle_layers"]: p for p in pstudy.paper_study(quick=True, sweeps=["particle_layers"],
+                                                                         dimension=3).points()}
+    for folder in folders:
+        layers, key = folder.name.split("-")
+        point = points[int(layers.removeprefix("PL"))]
+        assert key == point.key, folder.name
+        assert design_key(load_design(folder / "design.toml")) == key, folder.name
+        record = _read_record(folder)
+        assert record["status"] == "ok" and record["key"] == key, folder.name
+        assert record["metrics"]["converged"] is True and record["metrics"]["stabilisation_released"] is True
