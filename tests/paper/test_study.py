@@ -104,9 +104,9 @@ def test_other_dimensions_are_refused(dimension):
 
 def test_the_kept_3d_records_restore_into_the_quick_3d_study():
     """docs/data/paper-3d-quick/ keeps the finished quick 3D points' records so that, copied into
-    OUT/points/<key>/, `reproduce` loads them: each folder's key must be the key of the study's
-    point with that many layers, its design.toml that point's design, and its point.json a
-    finished record (what the sweep's cache reads)."""
+    OUT/points/<key>/, `reproduce` loads them: each folder's key (PL<layers>-, T<kelvin>-,
+    H<mm>-<key>) must be the key of the study's point with that value, its design.toml that
+    point's design, and its point.json a finished record (what the sweep's cache reads)."""
     from pathlib import Path
 
     from hydrojam.actuator.design import load_design
@@ -116,11 +116,12 @@ def test_the_kept_3d_records_restore_into_the_quick_3d_study():
     data = Path(__file__).resolve().parents[2] / "docs" / "data" / "paper-3d-quick"
     folders = sorted(f for f in data.iterdir() if f.is_dir())
     assert folders
-    points = {p.values["particle_layers"]: p for p in pstudy.paper_study(quick=True, sweeps=["particle_layers"],
-                                                                         dimension=3).points()}
+    prefixes = {"stimulus.temperature": "T", "particle_layers": "PL", "strain_limit_thickness": "H"}
+    points = {f"{prefixes[k]}{v:g}": p for p in pstudy.paper_study(quick=True, dimension=3).points()
+              for k, v in p.values.items()}
     for folder in folders:
-        layers, key = folder.name.split("-")
-        point = points[int(layers.removeprefix("PL"))]
+        name, key = folder.name.split("-")
+        point = points[name.replace("PL0", "PL")]  # PL05: sorted with PL15
         assert key == point.key, folder.name
         assert design_key(load_design(folder / "design.toml")) == key, folder.name
         record = _read_record(folder)
