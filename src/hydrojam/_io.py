@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import json
 import math
 import os
 import tempfile
@@ -96,6 +97,16 @@ def read_toml(path: str | os.PathLike, kind: str, error: type[Exception]) -> dic
         raise error(f"{path}: not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as err:
         raise error(f"{path}: invalid TOML: {err}") from None
+
+
+def read_json_dict(path: str | os.PathLike) -> dict | None:
+    """The JSON object in ``path``, or None where the file is missing, unreadable, not JSON or not
+    an object (a record a run may not have written, or written by another version)."""
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
 
 
 def finite_or_none(value):

@@ -9,14 +9,12 @@ Read only: a run going on in another process is seen as unfinished, at its last 
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from hydrojam._io import finite_number, read_json_dict
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress
 from hydrojam.study.spec import Point, StudyError, load_study
 from hydrojam.study.sweep import running_point
@@ -73,30 +71,6 @@ class FolderStatus:
         return {st: n for st in STATES if (n := sum(r.state == st for r in self.runs))}
 
 
-def _read_json(path: Path) -> dict | None:
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    return data if isinstance(data, dict) else None
-
-
-def _last_state(folder: Path) -> dict | None:
-    """The last row of ``folder``/history.csv (the last accepted state), or None."""
-    try:
-        rows = list(csv.DictReader(io.StringIO((folder / "history.csv").read_text(encoding="utf-8"))))
-    except (OSError, ValueError, csv.Error):
-        return None
-    return rows[-1] if rows else None
-
-
-def _number(value) -> float | None:
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return None
-
-
 def _updated(folder: Path) -> float | None:
     times = []
     for name in ("point.json", "metrics.json", CHECKPOINT, "history.csv"):
@@ -113,19 +87,21 @@ def _status(folder: Path, key: str, points: tuple[Point, ...], outcome: dict | N
     updated = _updated(folder)
     if outcome is not None and outcome.get("status") in ("ok", "not_converged"):
         metrics = outcome.get("metrics") or {}
-        s = _number(metrics.get("s_reached"))
+        s = finite_number(metrics.get("s_reached"))
         return RunStatus(key, points, outcome["status"], 1.0 if s is None and outcome["status"] == "ok" else s,
-                         _number(metrics.get("bending_angle_deg")), _number(outcome.get("wall_time_s")),
+                         finite_number(metrics.get("bending_angle_deg")), finite_number(outcome.get("wall_time_s")),
                          None, updated)
-    error = None if outcome is None else outcome.get("error")
-    state = "failed" if outcome is not None else "unfinished"
     running = running_point(points, folder)
+    if outcome is not None:
+        state = "failed"
+    elif running is not None or (folder / CHECKPOINT).is_file():
+        state = "unfinished"
+    else:
+        state = "not started"
+    error = None if outcome is None else outcome.get("error")
     if running is None:
-        if not (folder / CHECKPOINT).is_file():
-            state = "failed" if outcome is not None else "not started"
         return RunStatus(key, points, state, updated=updated, error=error)
-    last = _last_state(folder) or {}
-    return RunStatus(key, points, state, running.s, _number(last.get("bending_angle_deg")), running.wall_time_s,
+    return RunStatus(key, points, state, running.s, running.bending_angle_deg, running.wall_time_s,
                      running.release, updated, error)
 
 
@@ -151,7 +127,7 @@ def _run_outcome(folder: Path) -> dict | None:
     """A run folder's outcome in point.json's terms, from its metrics.json (None: not finished)."""
     if (folder / CHECKPOINT).is_file():  # run again into the same folder: going on
         return None
-    metrics = _read_json(folder / "metrics.json")
+    metrics = read_json_dict(folder / "metrics.json")
     if metrics is None:
         return None
     return {"status": "ok" if metrics.get("converged") else "not_converged", "metrics": metrics,
@@ -184,10 +160,10 @@ def _folder_status(out: Path) -> FolderStatus:
         runs = []
         for key, points in groups.items():
             folder = out / "points" / key
-            runs.append(_status(folder, key, tuple(points), _read_json(folder / "point.json")))
+            runs.append(_status(folder, key, tuple(points), read_json_dict(folder / "point.json")))
         # a rerun with fewer sweeps (`reproduce --sweep ...`) rewrites study.toml with those only
         others = sorted(f for f in (out / "points").glob("*") if f.is_dir() and f.name not in groups)
-        runs += [_status(f, f.name, (), _read_json(f / "point.json")) for f in others]
+        runs += [_status(f, f.name, (), read_json_dict(f / "point.json")) for f in others]
         return FolderStatus("study", study.name, tuple(runs))
     if (out / "design.toml").is_file() and any((out / n).is_file()
                                                for n in ("history.csv", CHECKPOINT, "metrics.json")):

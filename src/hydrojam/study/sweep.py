@@ -50,7 +50,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hydrojam._io import atomic_path, finite_or_none, read_toml, write_text_atomic
+from hydrojam._io import atomic_path, finite_number, finite_or_none, read_json_dict, read_toml, write_text_atomic
 from hydrojam._validation import owner_model
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress, release_progress
 from hydrojam.actuator.design import Design, DesignError
@@ -169,11 +169,7 @@ def _execute(point_fn: Callable[[Design, Path], dict], design: Design, point_dir
 
 
 def _read_record(point_dir: Path) -> dict | None:
-    try:
-        record = json.loads((point_dir / "point.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    return record if isinstance(record, dict) else None
+    return read_json_dict(point_dir / "point.json")
 
 
 # -------------------------------------------------------------------- the table
@@ -442,35 +438,51 @@ class PointOutcome:
 class RunningPoint:
     """A distinct design being computed: the study points sharing it, the load parameter ``s``
     [-] of its run's last accepted state, the run's wall time so far [s] (a run resumed from
-    its checkpoint counts its earlier part) and, once at s = 1, how far its release has gone
-    (None before, or where its checkpoint does not say)."""
+    its checkpoint counts its earlier part), once at s = 1 how far its release has gone (None
+    before, or where its checkpoint does not say) and the last accepted state's bending angle
+    [deg] (at s = 1 the stabilised state's; None where history.csv has no such column)."""
 
     points: tuple[Point, ...]
     s: float
     wall_time_s: float
     release: ReleaseProgress | None = None
+    bending_angle_deg: float | None = None
 
 
 def running_point(points: tuple[Point, ...], point_dir: str | os.PathLike) -> RunningPoint | None:
-    """The progress of the run in ``point_dir``: from its history.csv (:func:`point_progress`) and,
+    """The progress of the run in ``point_dir``: from its history.csv's last accepted state and,
     at s = 1, its checkpoint's release (the wall time then counts the release's rounds so far);
     None where it has no accepted state yet."""
-    progress = point_progress(point_dir)
+    row = _last_state(point_dir)
+    progress = _progress(row)
     if progress is None:
         return None
     s, wall = progress
     release = release_progress(Path(point_dir) / CHECKPOINT) if s >= 1.0 else None
-    return RunningPoint(points, s, wall + (0.0 if release is None else release.seconds), release)
+    return RunningPoint(points, s, wall + (0.0 if release is None else release.seconds), release,
+                        finite_number(row.get("bending_angle_deg")))
+
+
+def _last_state(point_dir: str | os.PathLike) -> dict | None:
+    """The last row of ``point_dir``/history.csv (the last accepted state), or None."""
+    try:
+        rows = list(csv.DictReader(io.StringIO((Path(point_dir) / "history.csv").read_text(encoding="utf-8"))))
+    except (OSError, ValueError, csv.Error):
+        return None
+    return rows[-1] if rows else None
+
+
+def _progress(row: dict | None) -> tuple[float, float] | None:
+    try:
+        return float(row["s"]), float(row["wall_time_s"])
+    except (ValueError, KeyError, TypeError):
+        return None
 
 
 def point_progress(point_dir: str | os.PathLike) -> tuple[float, float] | None:
     """(s, wall time [s]) of the last accepted state in ``point_dir``/history.csv; None where
     there is none yet (or it cannot be read)."""
-    try:
-        rows = list(csv.DictReader(io.StringIO((Path(point_dir) / "history.csv").read_text(encoding="utf-8"))))
-        return float(rows[-1]["s"]), float(rows[-1]["wall_time_s"])
-    except (OSError, ValueError, KeyError, IndexError, TypeError):
-        return None
+    return _progress(_last_state(point_dir))
 
 
 #: seconds between two reports of the running points (``on_running`` of :func:`run_sweep`)
