@@ -378,4 +378,4 @@ def test_running_points_in_the_release_say_how_far_it_has_gone():
     on_path, in_release = text.split("; ", 1)
     assert on_path == "temperature[0] stimulus.temperature=285: s = 0.500 after 42 s"
     assert in_release.startswith("temperature[1] stimulus.temperature=295: s = 1.000 after 90 min, ")
-    assert in_release.endswith("releasing the stabilisation: 12 rounds, 1534 iterations, damping now 100x")
+    assert in_release.endswith("releasing the stabilisation: 12 rounds, 1534 iterations, damping 100x")

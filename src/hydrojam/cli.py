@@ -459,8 +459,7 @@ RUNNING_LOG_INTERVAL_S = 600.0
 
 def _release_text(progress) -> str:
     """A release's progress (:class:`~hydrojam.actuator.checkpoint.ReleaseProgress`) in a few words."""
-    return (f"releasing the stabilisation: {progress.rounds} round{'s' if progress.rounds != 1 else ''}, "
-            f"{progress.iterations} iterations, damping now {progress.damping:.3g}x")
+    return f"releasing the stabilisation: {progress.summary()}"
 
 
 def _running_text(running) -> str:
@@ -568,6 +567,30 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
         raise typer.Exit(code=1)
 
 
+def _interim_report(write, out: Path, quiet: bool) -> None:
+    """Call ``write() -> (table, report path)`` (a report written without running: ``reproduce
+    --report-only``), print how many distinct points are in each state and where the report is,
+    and exit 1 when a finished point failed or stopped early."""
+    from hydrojam.actuator.design import DesignError
+    from hydrojam.paper._rows import point_status
+
+    try:
+        table, path = write()
+    except DesignError as err:
+        raise InputError(str(err)) from None
+    by_key = {r.get("key"): point_status(r) for r in table.rows}
+    counts = {st: sum(v == st for v in by_key.values()) for st in ("ok", "not_converged", "failed", "unfinished")}
+    console = Console(stderr=True)
+    if not quiet:
+        console.print(f"hydrojam: nothing run; {len(by_key)} distinct points ({len(table)} rows): {counts['ok']} ok, "
+                      f"{counts['not_converged']} not converged, {counts['failed']} failed, "
+                      f"{counts['unfinished']} not finished", soft_wrap=True)
+        console.print(f"table: {out / 'results.csv'} and {out / 'results.parquet'}", soft_wrap=True)
+        console.print(f"report: {path} (figures in {out / 'figures'})", soft_wrap=True)
+    if counts["failed"] or counts["not_converged"]:
+        raise typer.Exit(code=1)
+
+
 def _check_workers(workers: Optional[int], scheduler: Optional[str], out: Path) -> None:
     if workers is not None and workers < 1:
         raise InputError(f"--workers: must be >= 1 (got {workers})")
@@ -588,13 +611,15 @@ def reproduce(
     sweep: list[str] = typer.Option([], "--sweep", help="Run only this sweep (repeatable): temperature, particle_layers, strain_limit_thickness; a later run into the same folder adds the others."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
     replicas: int = typer.Option(1, "--replicas", help="Replicas per point: the table and figures give their mean and spread, and a statement agrees or disagrees only beyond the spread."),
+    report_only: bool = typer.Option(False, "--report-only", help="Run nothing: the table, figures and report.md of the points finished in OUT so far, the others shown as not finished (an interim report of a study in progress)."),
 ) -> None:
     """Reproduce the paper's Section IV (2D, or 3D with --dimension 3): the temperature,
     particle-layer and strain-limit thickness sweeps, their figures and OUT/report.md (the
     paper's statements, agree/disagree; in 3D also 2D against 3D with --compare-2d).
 
-    Cached and resumable like `hydrojam sweep`. Exit status 0 when every point converged, 1 when
-    any failed or stopped early (the report is still written), 2 on bad input.
+    Cached and resumable like `hydrojam sweep`. Exit status 0 when every point converged (with
+    --report-only: every finished one), 1 when any failed or stopped early (the report is still
+    written), 2 on bad input.
     """
     from hydrojam.paper.compare import CompareError, read_2d_results
     from hydrojam.paper.reproduce import reproduce as run_reproduce
@@ -609,12 +634,24 @@ def reproduce(
         paper_study(quick, sweep or None, dimension=dimension)
     except ValueError as err:
         raise InputError(f"--sweep: {err}") from None
-    _check_workers(workers, scheduler, out)
+    if report_only:
+        if workers is not None or scheduler is not None:
+            raise InputError(f"--{'workers' if workers is not None else 'scheduler'}: nothing runs with --report-only")
+        if not out.is_dir():
+            raise InputError(f"--out: {out}: {'not a folder' if out.exists() else 'no such folder'} (--report-only "
+                             "writes the report of a study already run or started there)")
+    else:
+        _check_workers(workers, scheduler, out)
     if compare_2d is not None:
         try:
             read_2d_results(compare_2d, quick)
         except CompareError as err:
             raise InputError(f"--compare-2d: {err}") from None
+    if report_only:
+        _interim_report(lambda: run_reproduce(out, quick=quick, sweeps=sweep or None, replicas=replicas,
+                                              dimension=dimension, compare_2d=compare_2d, report_only=True),
+                        out, quiet)
+        return
     _run_with_progress(lambda on_point, on_running: run_reproduce(
                            out, quick=quick, workers=workers, scheduler=scheduler, sweeps=sweep or None,
                            on_point=on_point, replicas=replicas, dimension=dimension, compare_2d=compare_2d,
@@ -799,9 +836,7 @@ def status(
                       "" if r.bending_angle_deg is None else f"{r.bending_angle_deg:.2f}",
                       "" if r.wall_time_s is None else duration(r.wall_time_s),
                       "" if r.updated is None else f"{duration(max(now - r.updated, 0.0))} ago",
-                      r.error or ("" if r.release is None else
-                                  f"{r.release.rounds} rounds, {r.release.iterations} iterations, "
-                                  f"damping {r.release.damping:.3g}x" + _measured(r.release_metrics)))
+                      r.error or ("" if r.release is None else r.release.summary() + _measured(r.release_metrics)))
     console = Console()
     console.print(table)
     console.print(", ".join(f"{n} {state.replace('_', ' ')}" for state, n in st.counts().items()))

@@ -169,3 +169,22 @@ def test_a_replica_reversing_its_rotation_makes_the_curling_index_unusable():
     res = {r.claim.id: r for r in pclaims.check_claims(rows)}["PL-curling"]
     assert "12 (curling index of a replica outside [0, 1] (-0.40 to 0.72" in res.summary
     assert res.verdict == "agree"  # the other points still show the transition
+
+
+def test_a_point_not_finished_leaves_the_claim_open_and_says_what_the_others_read():
+    """A table written while the study runs (`reproduce --report-only`): a claim whose sweep has
+    a point not finished is undetermined whatever the finished points read, and says what they
+    read; an unfinished end point leaves the claim undetermined as a failed one does."""
+    rows = with_values(layer_rows(), bending_angle_deg={15: 120.0})  # PL 15 far above PL 9's 80°
+    assert {r.claim.id: r for r in pclaims.check_claims(rows)}["PL-angle"].verdict == "disagree"
+    rows[6] = row("particle_layers", "particle_layers", 11, None, None, None, status="unfinished",
+                  error="not finished: s = 0.500 reached")
+    res = {r.claim.id: r for r in pclaims.check_claims(rows)}
+    assert res["PL-angle"].verdict == "undetermined"
+    assert res["PL-angle"].summary.startswith("not final, PL 11 not finished; the finished points alone read disagree: ")
+    assert res["PL-dx"].verdict == "undetermined"
+    assert res["PL-dx"].summary.startswith("not final, PL 11 not finished; the finished points alone read agree: ")
+    assert "skipped 11 (not finished)" in res["PL-dx"].summary
+    rows[-1] = row("particle_layers", "particle_layers", 19, None, None, None, status="unfinished")
+    res = {r.claim.id: r for r in pclaims.check_claims(rows)}
+    assert res["PL-dx"].verdict == "undetermined" and "|δx| at 19: not finished" in res["PL-dx"].summary

@@ -196,3 +196,54 @@ def test_reproduce_3d_runs_a_tiny_study_end_to_end(tmp_path, monkeypatch):
     assert (tmp_path / "figures" / "temperature_shapes.png").read_bytes()[:4] == b"\x89PNG"
     text = report.read_text(encoding="utf-8")
     assert "in 3D" in text and "*No 2D results given.*" in text
+
+
+def test_reproduce_report_only_writes_an_interim_report(tmp_path, monkeypatch, capsys):
+    """`reproduce --report-only` on a quick study in progress: PL 15 stopped at s = 0.5 (its
+    history.csv), h = 12 mm not started, the others finished. Nothing runs; the table, the six
+    figures and the report say which points are not finished, and the claims of their sweeps
+    stay undetermined with what the finished points read. Exit status 0: nothing failed."""
+    from hydrojam.cli import main
+    from hydrojam.study import sweep as sweep_mod
+    from hydrojam.study.spec import write_study
+
+    study = pstudy.paper_study(quick=True)
+    write_study(tmp_path / "study.toml", study)
+    key = {(p.sweep, p.index): p.key for p in study.points()}
+    pl15, h12 = key[("particle_layers", 4)], key[("strain_limit_thickness", 2)]
+    _cache_points(tmp_path, study)
+    for k in (pl15, h12):
+        (tmp_path / "points" / k / "point.json").unlink()
+    (tmp_path / "points" / pl15 / "history.csv").write_text(
+        "step,s,bending_angle_deg,wall_time_s\n0,0.0,0.0,0.1\n1,0.5,40.0,600.0\n")
+    monkeypatch.setattr(sweep_mod, "_local_cluster", lambda n: pytest.fail("a point was run"))
+    assert main(["reproduce", "--quick", "-o", str(tmp_path), "--report-only"]) == 0
+    assert "10 distinct points (12 rows): 8 ok, 0 not converged, 0 failed, 2 not finished" in capsys.readouterr().err
+    assert not (tmp_path / "points" / pl15 / "point.json").exists()
+    assert len(list((tmp_path / "figures").glob("*.png"))) == 6
+    text = (tmp_path / "report.md").read_text(encoding="utf-8")
+    assert "8 converged, 0 not converged, 0 failed, **2 not finished**." in text
+    assert "**An interim report**: 2 of the 10 points are not finished" in text
+    assert "Nothing was run for this report (`--report-only`)" in text
+    assert "| unfinished: not finished: s = 0.500 reached (40.0 deg) |" in text
+    assert "| unfinished: not started |" in text
+    verdicts = {c.claim.id: c for c in pclaims.check_claims(sweep_mod.SweepTable.read(tmp_path))}
+    assert {c.verdict for cid, c in verdicts.items() if cid.startswith("PL-")} == {"undetermined"}
+    assert verdicts["PL-dx"].summary.startswith("not final, PL 15 not finished; the finished points alone read agree")
+    assert {verdicts[c].verdict for c in ("T-angle", "T-displacement", "T-linear", "T-dx-dominant")} == {"agree"}
+
+
+@pytest.mark.parametrize("args, says, made", [
+    (["--report-only"], "no such folder (--report-only writes the report of a study already run", False),
+    (["--report-only"], "holds no study yet (no study.toml)", True),
+    (["--report-only", "--workers", "2"], "--workers: nothing runs with --report-only", True),
+])
+def test_reproduce_report_only_refuses_a_folder_without_a_study(tmp_path, capsys, args, says, made):
+    from hydrojam.cli import main
+
+    out = tmp_path / "out"
+    if made:
+        out.mkdir()
+    assert main(["reproduce", "--quick", "-o", str(out), *args]) == 2
+    assert says in _one_error_line(capsys)
+    assert (list(out.iterdir()) == []) if made else not out.exists()

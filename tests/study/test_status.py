@@ -136,3 +136,33 @@ def test_cli_status_prints_the_table_and_the_counts(study_folder, capsys, monkey
         assert main(["status", str(bad)]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and why in err[0], err
+
+
+def test_a_table_without_running_reads_each_point_as_it_stands(study_folder, monkeypatch):
+    """run_sweep(run=False) (`reproduce --report-only`): the finished point's metrics, the failed
+    one as failed, the others "unfinished" with where each stands as its error; nothing runs (no
+    cluster), and only the table is written: no point record, study.toml unchanged."""
+    from hydrojam.study import sweep as sweep_mod
+    from hydrojam.study.spec import StudyError, load_study
+
+    out, keys = study_folder
+    monkeypatch.setattr(sweep_mod, "_local_cluster", lambda n: pytest.fail("a point was run"))
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    table = sweep_mod.run_sweep(load_study(out / "study.toml"), out, run=False,
+                                point_fn=lambda design, folder: pytest.fail("a point was run"))
+    assert [(r["status"], r["error"]) for r in table.rows] == [
+        ("ok", None), ("failed", "stopped after state 3"),
+        ("unfinished", "not finished: s = 0.500 reached (20.0 deg)"),
+        ("unfinished", "not finished: releasing the stabilisation (stabilised at 38.5 deg), 3 rounds, "
+                       "400 iterations, damping 10x"),
+        ("unfinished", "not started")]
+    assert table.rows[0]["bending_angle_deg"] == 43.96
+    after = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert {p.relative_to(out).as_posix() for p in set(after) - set(before)} == {"results.csv", "results.parquet"}
+    assert all(after[p] == data for p, data in before.items())
+    # a folder holding no study yet: refused, nothing written
+    empty = out.parent / "empty"
+    empty.mkdir()
+    with pytest.raises(StudyError, match="holds no study yet"):
+        sweep_mod.run_sweep(load_study(out / "study.toml"), empty, run=False)
+    assert list(empty.iterdir()) == []

@@ -70,6 +70,11 @@ class ReleaseProgress:
     damping: float
     seconds: float
 
+    def summary(self) -> str:
+        """The rounds, iterations and damping in a few words ("12 rounds, 1534 iterations, damping 100x")."""
+        return (f"{self.rounds} round{'' if self.rounds == 1 else 's'}, {self.iterations} iterations, "
+                f"damping {self.damping:.3g}x")
+
 
 def release_progress(path: str | Path) -> ReleaseProgress | None:
     """The release's progress recorded in the checkpoint at ``path`` (read without its arrays:

@@ -23,9 +23,10 @@ def truthy(v) -> bool | None:
 
 
 def point_status(row: dict) -> str:
-    """"ok", "not_converged" or "failed" (a row without status: from ``converged``)."""
+    """"ok", "not_converged", "failed" or "unfinished" (not run yet, or still running: a table
+    written without running, ``run_sweep(run=False)``); a row without status: from ``converged``."""
     status = row.get("status")
-    if status in ("ok", "not_converged", "failed"):
+    if status in ("ok", "not_converged", "failed", "unfinished"):
         if status == "ok" and truthy(row.get("converged")) is False:
             return "not_converged"
         return status

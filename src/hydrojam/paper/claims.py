@@ -17,7 +17,9 @@ magnitudes |δx|, |δz|, as the paper plots them. A range of the paper is checke
 and last points run within it (the quick study's h = 4, 8, 12 mm checks "4 to 10 mm" from 4 to
 8 mm and cannot check "10 to 12 mm"). A claim disagrees if any part of its check does, else it is
 undetermined if any part is (an end point failed or did not converge, fewer than two points in a
-range), else it agrees.
+range), else it agrees. A claim whose sweep has a point not finished yet (a table written from
+a study in progress, ``reproduce --report-only``) is undetermined whatever its finished points
+read, and its summary says what they read: that point may change any part, and the tolerance.
 
 With replicas (a table whose points carry ``<metric>_std``, :mod:`hydrojam.study.sweep`) the
 values are the replicas' means, and a part agrees or disagrees only when it does beyond the
@@ -267,14 +269,26 @@ def check_claim(claim: Claim, table) -> ClaimResult:
         text += _skipped(series)
     oks = [ok for ok, _ in parts]
     if any(ok is False for ok in oks):
-        return ClaimResult(claim, text, "disagree")
-    if any(ok is None for ok in oks) or not oks:
-        return ClaimResult(claim, text, "undetermined")
-    return ClaimResult(claim, text, SPREAD_VERDICT if any(ok == _SPREAD for ok in oks) else "agree")
+        verdict = "disagree"
+    elif any(ok is None for ok in oks) or not oks:
+        verdict = "undetermined"
+    else:
+        verdict = SPREAD_VERDICT if any(ok == _SPREAD for ok in oks) else "agree"
+    pending = sorted({p for s in series for p, why in s.problems.items() if why == _NOT_FINISHED})
+    if pending and verdict != "undetermined":
+        # a point still running may change any part (and the tolerance, from the sweep's largest value)
+        at = f"{sweep.symbol} " + ", ".join(fmt_param(p, sweep.unit) for p in pending)
+        return ClaimResult(claim, f"not final, {at} not finished; the finished points alone read {verdict}: "
+                                  + text, "undetermined")
+    return ClaimResult(claim, text, verdict)
 
 
 # ------------------------------------------------------------------------------------------------
 # A quantity over a sweep
+
+
+#: why a point of a table written without running (a study in progress) is not used
+_NOT_FINISHED = "not finished"
 
 
 class _Undetermined(Exception):
@@ -386,6 +400,8 @@ def _series(rows: Sequence[dict], sweep: PaperSweep, key: str, magnitude: bool, 
         status, v = point_status(row), number(row.get(key))
         if status == "failed":
             problems[p] = "failed"  # its error is in the report's table of points
+        elif status == "unfinished":
+            problems[p] = _NOT_FINISHED
         elif status == "not_converged":
             problems[p] = "not converged"
         elif v is None:

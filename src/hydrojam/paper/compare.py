@@ -124,7 +124,8 @@ def _label(sweep, point: tuple) -> str:
 
 
 def _usable(r: dict | None) -> bool:
-    return r is not None and point_status(r) != "failed" and number(r.get("bending_angle_deg")) is not None
+    return r is not None and point_status(r) not in ("failed", "unfinished") and number(
+        r.get("bending_angle_deg")) is not None
 
 
 def _tip_up(up: str, down: str, theta: float, dz: float, length: float | None) -> str:
@@ -151,6 +152,8 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
     if r2 is None:
         return "not run in 2D"
     for r, dim in ((r2, "2D"), (r3, "3D")):
+        if point_status(r) == "unfinished":
+            return f"no comparison yet: the {dim} point is {r.get('error') or 'not finished'}"
         if not _usable(r):
             return f"no comparison: the {dim} point failed ({r.get('error') or 'no result'})"
     t2, t3 = number(r2["bending_angle_deg"]), number(r3["bending_angle_deg"])
@@ -248,7 +251,7 @@ def comparison_lines(table_3d, table_2d, base: Design, *, quick: bool, out: str 
         cells = []
         for key in ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm"):
             for r in (p.row_2d, p.row_3d):
-                cells.append("—" if r is None or point_status(r) == "failed" else cell_pm(r, key))
+                cells.append("—" if r is None or point_status(r) in ("failed", "unfinished") else cell_pm(r, key))
         L.append(f"| {_md(p.label)} | " + " | ".join(cells) + f" | {_md(p.change)} |")
     usable = [p for p in points if _usable(p.row_2d) and _usable(p.row_3d)]
     if usable:

@@ -110,6 +110,8 @@ def _body_outlines(tris: np.ndarray, body: np.ndarray) -> np.ndarray:
 
 def _failure_text(row: dict, reason: str | None = None) -> str:
     """Why a panel is empty, wrapped to fit it."""
+    if reason is None and point_status(row) == "unfinished":
+        return "\n".join(textwrap.wrap(str(row.get("error") or "not finished"), 28)[:6])
     err = reason or str(row.get("error") or "no result")
     return "\n".join(textwrap.wrap(f"failed: {err}", 28)[:6])
 
@@ -122,7 +124,8 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     at the same scale (shared limits, equal aspect): membrane light grey, strain-limit layer dark
     grey, particles blue, read from ``OUT/<point_dir>/final.vtu``; the undeformed outer outline
     dashed (from the point's design.toml); the title gives the parameter and the bending angle.
-    A failed point (or one without final.vtu) gets an empty panel saying why. A 3D point is
+    A failed point (or one without final.vtu) gets an empty panel saying why, an unfinished one
+    (a table written without running) one saying where it stands. A 3D point is
     drawn as its section y = 0 (the symmetry plane: half of every particle, the walls and the
     strain-limit layer cut through the middle), seen along -y, as in its ``final.png``. Lengths in mm.
     """
@@ -137,7 +140,7 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     for row in rows:
         pdir = out / str(row.get("point_dir") or "")
         panel = {"row": row, "shape": None, "outline": None, "failed": None, "section": False}
-        if point_status(row) == "failed" or not row.get("point_dir"):
+        if point_status(row) in ("failed", "unfinished") or not row.get("point_dir"):
             panel["failed"] = _failure_text(row)
         else:
             try:
@@ -182,7 +185,7 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         if panel["failed"] is not None:
             ax.set_title(head, fontsize=9)
             ax.text(0.5, 0.5, panel["failed"], transform=ax.transAxes, ha="center", va="center", fontsize=7,
-                    color="tab:red")
+                    color="0.3" if point_status(row) == "unfinished" else "tab:red")
             continue
         pts, tris, body = panel["shape"]
         order = np.argsort(body, kind="stable")  # particles drawn last, over the walls
@@ -276,9 +279,11 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
         caption += (f"\nmeans of {max(replicas):.0f} replicas per point; error bars ± one standard deviation, "
                     "bands the replicas' range")
     failed = [r for r in rows if point_status(r) == "failed"]
-    if failed:
-        sym, _, u = _sweep_for(param, label, unit)
-        caption += "\nfailed (not drawn): " + ", ".join(f"{sym} = {fmt_param(number(r.get(param)), u)}" for r in failed)
+    sym, _, u = _sweep_for(param, label, unit)
+    for what, left in (("failed", failed), ("not finished", [r for r in rows if point_status(r) == "unfinished"])):
+        if left:
+            caption += f"\n{what} (not drawn): " + ", ".join(f"{sym} = {fmt_param(number(r.get(param)), u)}"
+                                                           for r in left)
     fig.supxlabel(caption, fontsize=8, color="tab:red" if failed else "0.3")
     fig.suptitle(f"Bending angle and free-end displacement against {label}", fontsize=10)
     with atomic_path(path) as tmp:

@@ -87,7 +87,7 @@ def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
                  "|---:|---:|---:|---:|---:|---:|---:|---:|:---|"]
         for r in sorted_by(rows, sw.field):
             status = point_status(r)
-            note = status if status != "failed" else "failed"
+            note = status
             if r.get("error"):
                 note += f": {r.get('error')}"
             used = f"{_cell(r.get('replicas_used'), '{:.0f}')}/{_cell(r.get('replicas'), '{:.0f}')}"
@@ -103,7 +103,7 @@ def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
     for r in sorted_by(rows, sw.field):
         status = point_status(r)
         conv = truthy(r.get("converged"))
-        note = status if status != "failed" else f"failed: {r.get('error') or 'no result'}"
+        note = status if status not in ("failed", "unfinished") else f"{status}: {r.get('error') or 'no result'}"
         if status == "ok" and truthy(r.get("stabilisation_released")) is False:
             note += " (stabilisation not released)"
         lines.append(
@@ -146,7 +146,8 @@ def _tolerance_text() -> list[str]:
 def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float | None,
                  explanations: dict[str, str] | None = None, *, workers: int | None = None,
                  scheduler: str | None = None, base: Design | None = None, compare_2d=None,
-                 compare_source: str | os.PathLike | None = None, computed: int | None = None) -> Path:
+                 compare_source: str | os.PathLike | None = None, computed: int | None = None,
+                 ran: bool = True) -> Path:
     """Write ``OUT/report.md`` (atomically) and return its path.
 
     What was run (quick or full, mesh size, points, workers, wall time, hydrojam version); per
@@ -158,7 +159,10 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     against 3D" (:func:`hydrojam.paper.compare.comparison_lines`) with ``compare_2d``, the 2D
     study's table of the same kind read from folder ``compare_source``, or says how to get it.
     ``computed``: how many distinct points this run computed (finished or went on from a
-    checkpoint) rather than reused from an earlier run into the same folder.
+    checkpoint) rather than reused from an earlier run into the same folder. ``ran=False``: the
+    report of a study in progress, written from its finished points without running anything
+    (``reproduce(report_only=True)``): its unfinished points are listed as such and the report
+    says that it is an interim one.
     """
     out = Path(out)
     base = base if base is not None else paper_base(quick)
@@ -171,7 +175,8 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
         by_key.setdefault(r.get("key") or id(r), r)
     n_points = len(by_key)
     compute = sum(number(r.get("wall_time_s")) or 0.0 for r in by_key.values())
-    counts = {s: sum(1 for r in by_key.values() if point_status(r) == s) for s in ("ok", "not_converged", "failed")}
+    counts = {s: sum(1 for r in by_key.values() if point_status(r) == s)
+              for s in ("ok", "not_converged", "failed", "unfinished")}
     verdicts = {v: sum(1 for c in results if c.verdict == v)
                 for v in ("agree", "disagree", "undetermined", SPREAD_VERDICT)}
     n_replicas = _replicated(all_rows)
@@ -206,15 +211,22 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
         L.append(f"- {sw.label}: {', '.join(f'{v:g}' for v in vals)} {'' if sw.unit == 'layers' else sw.unit}"
                  .rstrip() + f" ({sw.figures}).{not_run}")
     L += [f"- {n_points} distinct points (the base point is shared by the three sweeps): {counts['ok']} converged, "
-          f"{counts['not_converged']} not converged, {counts['failed']} failed.",
-          f"- Workers: {_workers_text(workers, scheduler)}; "
-          f"wall time {'—' if number(wall_time_s) is None else duration(wall_time_s)}"
-          + ("" if computed is None else f" (this run: {computed} of the {n_points} points computed, the others "
-                                         "reused from earlier runs into this folder)")
+          f"{counts['not_converged']} not converged, {counts['failed']} failed"
+          + (f", **{counts['unfinished']} not finished**." if counts["unfinished"] else "."),
+          (f"- Workers: {_workers_text(workers, scheduler)}; "
+           f"wall time {'—' if number(wall_time_s) is None else duration(wall_time_s)}"
+           + ("" if computed is None else f" (this run: {computed} of the {n_points} points computed, the others "
+                                          "reused from earlier runs into this folder)")
+           if ran else "- Nothing was run for this report (`--report-only`): it is written from the points "
+                       "finished in this folder so far")
           + f"; compute time summed over points {duration(compute)} (a resumed run reuses finished points).",
           f"- Claims: {verdicts['agree']} agree, {verdicts['disagree']} disagree, "
           f"{verdicts['undetermined']} undetermined"
           + (f", {verdicts[SPREAD_VERDICT]} {SPREAD_VERDICT}." if n_replicas > 1 else "."), ""]
+    if counts["unfinished"]:
+        L += [f"**An interim report**: {counts['unfinished']} of the {n_points} points are not finished (their "
+              "rows say where each stands); a statement that needs one is undetermined until it finishes. "
+              f"{rerun} runs them on from their checkpoints and rewrites this report.", ""]
     for sw in PAPER_SWEEPS:
         rows = rows_of(table, sw.name)
         L += [f"## {sw.label[0].upper() + sw.label[1:]} (paper {sw.figures})", ""]

@@ -29,7 +29,8 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
               scheduler: str | None = None, sweeps: Sequence[str] | None = None,
               on_point: Callable[[PointOutcome, int, int], None] | None = None,
               replicas: int = 1, dimension: int = 2,
-              compare_2d: str | os.PathLike | None = None, on_running=None) -> tuple[SweepTable, Path]:
+              compare_2d: str | os.PathLike | None = None, on_running=None,
+              report_only: bool = False) -> tuple[SweepTable, Path]:
     """Run the Section IV study into ``out`` (:func:`hydrojam.study.sweep.run_sweep` with
     ``workers``, ``scheduler``, ``on_point`` and ``on_running``; quick: a subset on a 4 mm mesh; ``sweeps``: only
     those named, the others can be added by a later call into the same folder; ``replicas`` per
@@ -40,7 +41,10 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
     StudyError, nothing run, for an OUT holding the other dimension's or kind's study);
     ``compare_2d``: with dimension 3, a folder holding the 2D study of the same kind, read
     before anything runs (:func:`hydrojam.paper.compare.read_2d_results`; CompareError, a
-    ValueError, when unusable; ValueError with dimension 2), for the report's 2D-against-3D table."""
+    ValueError, when unusable; ValueError with dimension 2), for the report's 2D-against-3D table.
+    ``report_only``: run nothing; the table, figures and report of the points finished in ``out``
+    so far, the others shown as not finished (``run_sweep(run=False)``: StudyError where ``out``
+    holds no study yet)."""
     out = Path(out)
     t0 = time.perf_counter()
     study = paper_study(quick, sweeps, replicas, dimension)
@@ -55,8 +59,10 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
         if on_point is not None:
             on_point(outcome, done, total)
 
-    table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=point_done, on_running=on_running)
+    table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=point_done, on_running=on_running,
+                      run=not report_only)
     write_figures(out, table)
     report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler,
-                          base=study.base, compare_2d=table_2d, compare_source=compare_2d, computed=len(computed))
+                          base=study.base, compare_2d=table_2d, compare_source=compare_2d,
+                          computed=None if report_only else len(computed), ran=not report_only)
     return table, report

@@ -92,6 +92,7 @@ __all__ = [
     "point_progress",
     "running_point",
     "run_sweep",
+    "unfinished_text",
 ]
 
 
@@ -353,7 +354,7 @@ def _aggregate(recs: list[dict], replicas: list[int], replicated: bool) -> dict[
     else:
         used = [i for i, st in enumerate(statuses) if st == "ok"]
         used = used or [i for i, st in enumerate(statuses) if st == "not_converged" and recs[i].get("metrics")]
-        status = "failed" if not used else statuses[used[0]]
+        status = statuses[used[0]] if used else ("unfinished" if "unfinished" in statuses else "failed")
     out: dict[str, Any] = {}
     for k, kind in METRIC_COLUMNS.items():
         values = [(recs[i].get("metrics") or {}).get(k) for i in used]
@@ -555,6 +556,7 @@ def run_sweep(
     point_fn: Callable[[Design, Path], dict] = run_point,
     on_running: Callable[[list[RunningPoint], int, int], None] | None = None,
     progress_interval_s: float | None = None,
+    run: bool = True,
 ) -> SweepTable:
     """Run every distinct design of ``study`` into ``OUT/points/<key>/`` and write the table.
 
@@ -571,6 +573,11 @@ def run_sweep(
     the workers share OUT's file system). On KeyboardInterrupt the futures are cancelled, the cluster closed, and the
     interrupt re-raised: finished points are on disk. Returns the table, also written to
     ``OUT/results.csv`` and ``OUT/results.parquet``.
+
+    ``run=False`` runs nothing: the table of the points finished so far, a point failed earlier
+    as failed, every other one with status ``unfinished`` and where it stands as its error
+    (:func:`unfinished_text`); ``OUT`` must already hold this study (StudyError otherwise) and
+    only the table is written.
 
     Raises StudyError for a point the simulator does not support or an ``OUT`` that holds another
     study (``OUT/study.toml`` with another name; the same name resumes), ValueError for workers < 1,
@@ -589,15 +596,22 @@ def run_sweep(
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"{out}: exists and is not a folder")
     _check_same_study(out, study)
+    if not run and not (out / "study.toml").is_file():
+        raise StudyError(f"{out}: holds no study yet (no study.toml): nothing finished to write a table from")
     groups: dict[str, list[Point]] = {}
     for p in study.points():
         groups.setdefault(p.key, []).append(p)
     records: dict[str, dict] = {}
     for key in groups:
         rec = _read_record(out / "points" / key)
-        if rec is not None and rec.get("status") in _FINISHED:
+        if rec is not None and (rec.get("status") in _FINISHED or (not run and rec.get("status") == "failed")):
             records[key] = rec
     pending = [key for key in groups if key not in records]
+    if not run:
+        for key in pending:
+            records[key] = {"status": "unfinished",
+                            "error": unfinished_text(running_point(tuple(groups[key]), out / "points" / key))}
+        return _write_table(study, out, records)
 
     client = cluster = None
     try:
@@ -622,11 +636,31 @@ def run_sweep(
             client.close()
         if cluster is not None:
             cluster.close()
+    return _write_table(study, out, records)
+
+
+def _write_table(study: Study, out: Path, records: dict[str, dict]) -> SweepTable:
+    """The study's table from ``records``, written to OUT/results.csv and .parquet (and
+    replicas.csv with replicas)."""
     table = build_table(study, records)
     table.write(out)
     if study.replicas > 1:
         write_text_atomic(out / "replicas.csv", replica_table(study, records).to_csv())
     return table
+
+
+def unfinished_text(running: RunningPoint | None) -> str:
+    """Where an unfinished run stands, in a few words, from its :func:`running_point` (None: no
+    accepted state yet): "not started", "not finished: s = 0.789 reached (47.0 deg)" or, at s =
+    1, "not finished: releasing the stabilisation (stabilised at 92.4 deg), 21 rounds, ...".
+    """
+    if running is None:
+        return "not started"
+    angle = "" if running.bending_angle_deg is None else f"{running.bending_angle_deg:.1f} deg"
+    if running.s < 1.0:
+        return f"not finished: s = {running.s:.3f} reached" + (f" ({angle})" if angle else "")
+    text = "not finished: releasing the stabilisation" + (f" (stabilised at {angle})" if angle else "")
+    return text + ("" if running.release is None else f", {running.release.summary()}")
 
 
 def _check_same_study(out: Path, study: Study) -> None:
