@@ -425,19 +425,24 @@ def sweep(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of a running dask scheduler, e.g. tcp://10.0.0.5:8786."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
     replicas: Optional[int] = typer.Option(None, "--replicas", help="Replicas per point (the table holds their mean and spread); default: the base design's replicas.count."),
+    table_only: bool = typer.Option(False, "--table-only", help="Run nothing: the table of the points finished in OUT so far, the others as not finished (a study in progress)."),
 ) -> None:
     """Run every point of a study in parallel (dask), cached in OUT/points/, and write the table.
 
     Points already finished in OUT (ok or not converged) are loaded, not run again; failed and
-    unfinished ones are run. Exit status 0 when every point reached its target stimulus, 1 when
-    any failed or stopped early (the table is still written), 2 on bad input.
+    unfinished ones are run. Exit status 0 when every point reached its target stimulus (with
+    --table-only: every finished one), 1 when any failed or stopped early (the table is still
+    written), 2 on bad input.
     """
     from hydrojam.actuator.design import DesignError
     from hydrojam.study.spec import load_study
     from hydrojam.study.sweep import run_sweep
 
     replicas = _check_replicas(replicas)
-    _check_workers(workers, scheduler, out)
+    if table_only:
+        _check_nothing_runs("--table-only", workers, scheduler, out)
+    else:
+        _check_workers(workers, scheduler, out)
     if not study_file.is_file():
         raise InputError(f"{study_file}: no such study file")
     try:
@@ -449,6 +454,9 @@ def sweep(
             study = study.with_replicas(replicas)
         except DesignError as err:
             raise InputError(f"--replicas: {err}") from None
+    if table_only:
+        _interim_report(lambda: run_sweep(study, out, run=False), out, quiet)
+        return
     _run_with_progress(lambda on_point, on_running: run_sweep(study, out, workers=workers, scheduler=scheduler,
                                                               on_point=on_point, on_running=on_running), out, quiet)
 
@@ -567,17 +575,28 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
         raise typer.Exit(code=1)
 
 
+def _check_nothing_runs(flag: str, workers: Optional[int], scheduler: Optional[str], out: Path) -> None:
+    """``flag`` (--report-only, --table-only) runs nothing: no --workers or --scheduler, and OUT
+    must be a folder (a study already run or started there)."""
+    if workers is not None or scheduler is not None:
+        raise InputError(f"--{'workers' if workers is not None else 'scheduler'}: nothing runs with {flag}")
+    if not out.is_dir():
+        raise InputError(f"--out: {out}: {'not a folder' if out.exists() else 'no such folder'} ({flag} "
+                         "writes the results of a study already run or started there)")
+
+
 def _interim_report(write, out: Path, quiet: bool) -> None:
-    """Call ``write() -> (table, report path)`` (a report written without running: ``reproduce
-    --report-only``), print how many distinct points are in each state and where the report is,
-    and exit 1 when a finished point failed or stopped early."""
+    """Call ``write()`` (a table, or a (table, report path), written without running: ``sweep
+    --table-only``, ``reproduce --report-only``), print how many distinct points are in each state
+    and where the results are, and exit 1 when a finished point failed or stopped early."""
     from hydrojam.actuator.design import DesignError
     from hydrojam.paper._rows import point_status
 
     try:
-        table, path = write()
+        result = write()
     except DesignError as err:
         raise InputError(str(err)) from None
+    table, path = result if isinstance(result, tuple) else (result, None)
     by_key = {r.get("key"): point_status(r) for r in table.rows}
     counts = {st: sum(v == st for v in by_key.values()) for st in ("ok", "not_converged", "failed", "unfinished")}
     console = Console(stderr=True)
@@ -586,7 +605,8 @@ def _interim_report(write, out: Path, quiet: bool) -> None:
                       f"{counts['not_converged']} not converged, {counts['failed']} failed, "
                       f"{counts['unfinished']} not finished", soft_wrap=True)
         console.print(f"table: {out / 'results.csv'} and {out / 'results.parquet'}", soft_wrap=True)
-        console.print(f"report: {path} (figures in {out / 'figures'})", soft_wrap=True)
+        if path is not None:
+            console.print(f"report: {path} (figures in {out / 'figures'})", soft_wrap=True)
     if counts["failed"] or counts["not_converged"]:
         raise typer.Exit(code=1)
 
@@ -635,11 +655,7 @@ def reproduce(
     except ValueError as err:
         raise InputError(f"--sweep: {err}") from None
     if report_only:
-        if workers is not None or scheduler is not None:
-            raise InputError(f"--{'workers' if workers is not None else 'scheduler'}: nothing runs with --report-only")
-        if not out.is_dir():
-            raise InputError(f"--out: {out}: {'not a folder' if out.exists() else 'no such folder'} (--report-only "
-                             "writes the report of a study already run or started there)")
+        _check_nothing_runs("--report-only", workers, scheduler, out)
     else:
         _check_workers(workers, scheduler, out)
     if compare_2d is not None:

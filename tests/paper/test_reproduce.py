@@ -234,7 +234,7 @@ def test_reproduce_report_only_writes_an_interim_report(tmp_path, monkeypatch, c
 
 
 @pytest.mark.parametrize("args, says, made", [
-    (["--report-only"], "no such folder (--report-only writes the report of a study already run", False),
+    (["--report-only"], "no such folder (--report-only writes the results of a study already run", False),
     (["--report-only"], "holds no study yet (no study.toml)", True),
     (["--report-only", "--workers", "2"], "--workers: nothing runs with --report-only", True),
 ])

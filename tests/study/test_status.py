@@ -166,3 +166,22 @@ def test_a_table_without_running_reads_each_point_as_it_stands(study_folder, mon
     with pytest.raises(StudyError, match="holds no study yet"):
         sweep_mod.run_sweep(load_study(out / "study.toml"), empty, run=False)
     assert list(empty.iterdir()) == []
+
+
+def test_sweep_table_only_writes_the_table_so_far(study_folder, capsys, monkeypatch):
+    """`hydrojam sweep STUDY -o OUT --table-only`: the table of the study in progress, nothing
+    run; exit status 1 for its failed point; refused (2) with --workers, or where OUT is missing."""
+    from hydrojam.study import sweep as sweep_mod
+
+    out, keys = study_folder
+    study_file = out.parent / "five.toml"
+    study_file.write_bytes((out / "study.toml").read_bytes())
+    monkeypatch.setattr(sweep_mod, "_local_cluster", lambda n: pytest.fail("a point was run"))
+    assert main(["sweep", str(study_file), "-o", str(out), "--table-only"]) == 1
+    assert "5 distinct points (5 rows): 1 ok, 0 not converged, 1 failed, 3 not finished" in capsys.readouterr().err
+    assert [r["status"] for r in sweep_mod.SweepTable.read(out).rows] == ["ok", "failed"] + ["unfinished"] * 3
+    assert main(["sweep", str(study_file), "-o", str(out), "--table-only", "--workers", "2"]) == 2
+    assert "--workers: nothing runs with --table-only" in capsys.readouterr().err
+    assert main(["sweep", str(study_file), "-o", str(out.parent / "none"), "--table-only"]) == 2
+    assert "no such folder (--table-only writes the results" in capsys.readouterr().err
+    assert not (out.parent / "none").exists()
