@@ -130,6 +130,14 @@ def test_table_of_replicated_points():
     plain = build_table(single, {p.key: {"status": "ok", "metrics": {"bending_angle_deg": 1.5}, "wall_time_s": 3.0}})
     assert not any(c.endswith("_std") or c.startswith("replica") for c in plain.columns)
     assert plain.rows[0]["bending_angle_deg"] == 1.5 and plain.rows[0]["wall_time_s"] == 3.0
+    # written without running (run_sweep(run=False)): a replica not finished leaves its point
+    # unfinished, with the finished replicas' mean so far
+    records[next(p.key for p in study.points() if p.replica == 3 and p.design.stimulus.temperature == 275)] = {
+        "status": "unfinished", "error": "not finished: s = 0.500 reached"}
+    r275 = build_table(study, records).rows[0]
+    assert r275["status"] == "unfinished" and r275["replicas_used"] == 2
+    assert r275["bending_angle_deg"] == pytest.approx(26.5)
+    assert r275["error"] == "replica 2: early; replica 3: not finished: s = 0.500 reached"
 
 
 # -------------------------------------------------------------------- runs

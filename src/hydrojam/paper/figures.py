@@ -235,7 +235,7 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
         xs, ys, hollow, err, lo, hi = [], [], [], [], [], []
         for r in rows:
             p, v = number(r.get(param)), number(r.get(key))
-            if p is None or v is None or point_status(r) == "failed":
+            if p is None or v is None or point_status(r) in ("failed", "unfinished"):
                 continue
             xs.append(p)
             ys.append(abs(v) if magnitude else v)

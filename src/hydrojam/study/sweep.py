@@ -313,7 +313,9 @@ def build_table(study: Study, records: dict[str, dict]) -> SweepTable:
     and ``_max`` the spread of the :data:`SPREAD_METRICS`, ``wall_time_s`` the replicas' summed
     wall time, ``error`` each other replica's error, ``key`` and ``point_dir`` replica 0's; the
     spread columns and ``replicas``, ``replicas_used``, ``replica_dirs`` are there when any point
-    of the study has more than one replica.
+    of the study has more than one replica. A point with a replica not finished (status
+    ``unfinished``: a table written without running, :func:`run_sweep` ``run=False``) is
+    unfinished, its metrics those of the replicas finished so far.
     """
     varied = study.varied_fields()
     replicated = study.replicas > 1
@@ -354,7 +356,8 @@ def _aggregate(recs: list[dict], replicas: list[int], replicated: bool) -> dict[
     else:
         used = [i for i, st in enumerate(statuses) if st == "ok"]
         used = used or [i for i, st in enumerate(statuses) if st == "not_converged" and recs[i].get("metrics")]
-        status = statuses[used[0]] if used else ("unfinished" if "unfinished" in statuses else "failed")
+        # a replica not finished yet (a table written without running) leaves the point unfinished
+        status = "unfinished" if "unfinished" in statuses else (statuses[used[0]] if used else "failed")
     out: dict[str, Any] = {}
     for k, kind in METRIC_COLUMNS.items():
         values = [(recs[i].get("metrics") or {}).get(k) for i in used]
