@@ -225,8 +225,8 @@ def test_reproduce_report_only_writes_an_interim_report(tmp_path, monkeypatch, c
     assert "8 converged, 0 not converged, 0 failed, **2 not finished**." in text
     assert "**An interim report**: 2 of the 10 points are not finished" in text
     assert "Nothing was run for this report (`--report-only`)" in text
-    assert "| unfinished: not finished: s = 0.500 reached (40.0 deg) |" in text
-    assert "| unfinished: not started |" in text
+    assert "| not finished: s = 0.500 reached (40.0 deg) |" in text
+    assert "| not started |" in text
     verdicts = {c.claim.id: c for c in pclaims.check_claims(sweep_mod.SweepTable.read(tmp_path))}
     assert {c.verdict for cid, c in verdicts.items() if cid.startswith("PL-")} == {"undetermined"}
     assert verdicts["PL-dx"].summary.startswith("not final, PL 15 not finished; the finished points alone read agree")

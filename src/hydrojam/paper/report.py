@@ -103,7 +103,10 @@ def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
     for r in sorted_by(rows, sw.field):
         status = point_status(r)
         conv = truthy(r.get("converged"))
-        note = status if status not in ("failed", "unfinished") else f"{status}: {r.get('error') or 'no result'}"
+        if status == "unfinished":  # its error says where it stands: "not started", "not finished: ..."
+            note = r.get("error") or "not finished"
+        else:
+            note = status if status != "failed" else f"failed: {r.get('error') or 'no result'}"
         if status == "ok" and truthy(r.get("stabilisation_released")) is False:
             note += " (stabilisation not released)"
         lines.append(
