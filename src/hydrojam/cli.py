@@ -587,17 +587,18 @@ def _check_nothing_runs(flag: str, workers: Optional[int], scheduler: Optional[s
 
 def _interim_report(write, out: Path, quiet: bool) -> None:
     """Call ``write()`` (a table, or a (table, report path), written without running: ``sweep
-    --table-only``, ``reproduce --report-only``), print how many distinct points are in each state
-    and where the results are, and exit 1 when a finished point failed or stopped early."""
+    --table-only``, ``reproduce --report-only``), print how many distinct designs (each replica
+    one, as a run counts them) are in each state and where the results are, and exit 1 when a
+    finished one failed or stopped early."""
     from hydrojam.actuator.design import DesignError
-    from hydrojam.paper._rows import point_status
+    from hydrojam.study.sweep import run_states
 
     try:
         result = write()
     except DesignError as err:
         raise InputError(str(err)) from None
     table, path = result if isinstance(result, tuple) else (result, None)
-    by_key = {r.get("key"): point_status(r) for r in table.rows}
+    by_key = run_states(out, table)
     counts = {st: sum(v == st for v in by_key.values()) for st in ("ok", "not_converged", "failed", "unfinished")}
     console = Console(stderr=True)
     if not quiet:

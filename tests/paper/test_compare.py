@@ -124,3 +124,28 @@ def test_the_base_point_pairs_across_sweeps_and_missing_columns():
     base = by["base: T 275 K, PL 5, h 8 mm"]
     assert base.row_2d["bending_angle_deg"] == 70.0 and base.row_3d["bending_angle_deg"] == 50.0
     assert by["T = 285 K"].change == "not run in 3D"
+
+
+def test_points_not_finished_are_named_and_a_failed_one_first():
+    """Rows of a table written without running (status unfinished): no comparison yet, saying
+    where the point stands; a failed point on the other side is named before it."""
+    unfinished = row("temperature", "stimulus.temperature", 285.0, None, None, None, status="unfinished",
+                     error="replica 1: not started")
+    two = Table([unfinished, row("temperature", "stimulus.temperature", 295.0, 26.6, -14.6, -9.4),
+                 row("particle_layers", "particle_layers", 7, None, None, None, status="unfinished",
+                     error="not finished: s = 0.500 reached")])
+    three = Table([row("temperature", "stimulus.temperature", 285.0, 0, 0, 0, status="failed"),
+                   row("temperature", "stimulus.temperature", 295.0, None, None, None, status="unfinished",
+                       error="not started"),
+                   row("particle_layers", "particle_layers", 7, 35.0, -20.0, -6.0)])
+    by = {p.label: p.change for p in pcompare.compare_points(three, two, BASE_3D)}
+    assert by["T = 285 K"].startswith("no comparison: the 3D point failed")
+    assert by["T = 295 K"] == "no comparison yet: the 3D point is not started"
+    assert by["PL = 7"] == "no comparison yet: the 2D point is not finished: s = 0.500 reached"
+    lines = "\n".join(pcompare.comparison_lines(three, two, BASE_3D, quick=True, out="out3d"))
+    assert "nan" not in lines.lower()
+    unfinished["error"] = "replica 1: not started"
+    two2 = Table([unfinished])
+    three2 = Table([row("temperature", "stimulus.temperature", 285.0, 41.0, -24.0, -5.0)])
+    change, = [p.change for p in pcompare.compare_points(three2, two2, BASE_3D)]
+    assert change == "no comparison yet: the 2D point is not finished (replica 1: not started)"

@@ -247,3 +247,16 @@ def test_reproduce_report_only_refuses_a_folder_without_a_study(tmp_path, capsys
     assert main(["reproduce", "--quick", "-o", str(out), *args]) == 2
     assert says in _one_error_line(capsys)
     assert (list(out.iterdir()) == []) if made else not out.exists()
+
+
+def test_reproduce_report_only_needs_the_replicas_of_the_study_in_the_folder(tmp_path, capsys):
+    """A folder holding the study with 2 replicas per point: --report-only without --replicas 2
+    would show replica 0 alone as each point; refused, nothing written."""
+    from hydrojam.cli import main
+    from hydrojam.study.spec import write_study
+
+    write_study(tmp_path / "study.toml", pstudy.paper_study(True, replicas=2))
+    assert main(["reproduce", "--quick", "-o", str(tmp_path), "--report-only"]) == 2
+    assert "replicas: " in (err := _one_error_line(capsys)) and "with 2 per point (got 1)" in err
+    assert "(--replicas 2)" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]

@@ -157,6 +157,13 @@ def test_a_table_without_running_reads_each_point_as_it_stands(study_folder, mon
                        "400 iterations, damping 10x"),
         ("unfinished", "not started")]
     assert table.rows[0]["bending_angle_deg"] == 43.96
+    folders = [out / "points" / k for k in keys]
+    folders[4].mkdir()
+    _checkpoint(folders[4] / CHECKPOINT)  # a checkpoint, no history.csv: started
+    again = sweep_mod.run_sweep(load_study(out / "study.toml"), out, run=False)
+    assert again.rows[4]["error"] == "not finished: no accepted state read yet"
+    (folders[4] / CHECKPOINT).unlink()
+    folders[4].rmdir()
     after = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert {p.relative_to(out).as_posix() for p in set(after) - set(before)} == {"results.csv", "results.parquet"}
     assert all(after[p] == data for p, data in before.items())
@@ -185,3 +192,25 @@ def test_sweep_table_only_writes_the_table_so_far(study_folder, capsys, monkeypa
     assert main(["sweep", str(study_file), "-o", str(out.parent / "none"), "--table-only"]) == 2
     assert "no such folder (--table-only writes the results" in capsys.readouterr().err
     assert not (out.parent / "none").exists()
+
+
+def test_table_only_counts_every_replica_as_a_run_counts_it(tmp_path, capsys):
+    """A point of 2 replicas, one ok and one failed: its row is ok (the ok replica's values), but
+    the summary counts the failed replica and the exit status is 1, as after a run."""
+    from hydrojam.study.sweep import SweepTable, run_states
+
+    study = study_from_dict({"name": "two", "design": {"particle_layers": 1, "mesh": {"size": 4.0},
+                                                       "replicas": {"count": 2}},
+                             "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [295]}}]})
+    out = tmp_path / "out"
+    write_study(out / "study.toml", study)
+    for p, status in zip(study.points(), ("ok", "failed")):
+        (out / "points" / p.key).mkdir(parents=True)
+        (out / "points" / p.key / "point.json").write_text(json.dumps(
+            {"key": p.key, "status": status, "error": None if status == "ok" else "boom", "wall_time_s": 1.0,
+             "metrics": {"bending_angle_deg": 5.0} if status == "ok" else None}))
+    (out / "two.toml").write_bytes((out / "study.toml").read_bytes())
+    assert main(["sweep", str(out / "two.toml"), "-o", str(out), "--table-only"]) == 1
+    assert "2 distinct points (1 rows): 1 ok, 0 not converged, 1 failed, 0 not finished" in capsys.readouterr().err
+    table = SweepTable.read(out)
+    assert table.rows[0]["status"] == "ok" and sorted(run_states(out, table).values()) == ["failed", "ok"]

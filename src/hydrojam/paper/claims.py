@@ -247,7 +247,9 @@ def check_claim(claim: Claim, table) -> ClaimResult:
     quantities together); a part is undetermined where its points are missing or unusable, and
     undetermined (spread) where the replicas' spread covers its margin (module docstring). The
     verdict: "disagree" if any part disagrees, else "undetermined" if any part is (or there is
-    none), else "undetermined (spread)" if any part is, else "agree". The summary gives each
+    none), else "undetermined (spread)" if any part is, else "agree"; "undetermined" whatever
+    the parts say where a point of the sweep is not finished (a table written without running),
+    the summary then beginning with what they say. The summary gives each
     part's numbers (mean ± standard deviation with replicas) and the rule it applied, the ranges
     checked on other points than the paper's, and the points skipped (why).
     """

@@ -152,10 +152,13 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
     if r2 is None:
         return "not run in 2D"
     for r, dim in ((r2, "2D"), (r3, "3D")):
-        if point_status(r) == "unfinished":
-            return f"no comparison yet: the {dim} point is {r.get('error') or 'not finished'}"
-        if not _usable(r):
+        if point_status(r) == "failed" or (point_status(r) != "unfinished" and not _usable(r)):
             return f"no comparison: the {dim} point failed ({r.get('error') or 'no result'})"
+    for r, dim in ((r2, "2D"), (r3, "3D")):
+        if point_status(r) == "unfinished":
+            err = str(r.get("error") or "")
+            where = err if err.startswith(("not finished", "not started")) else f"not finished ({err or '?'})"
+            return f"no comparison yet: the {dim} point is {where}"
     t2, t3 = number(r2["bending_angle_deg"]), number(r3["bending_angle_deg"])
     swell = ("" if stretches is None else
              f"a free sphere swells {stretches[1]:.2f}x in diameter at {temperature:g} K, a plane-strain "

@@ -214,8 +214,8 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
                 curling: bool | None = None) -> None:
     """Bending angle and free-end displacement magnitudes |δx|, |δz| against the parameter (the
     paper's Figs. 7, 9, 11), and with ``curling`` (default: for ``particle_layers``) the curling
-    index. Markers and lines; a non-converged point is drawn hollow, a failed one is left out
-    and named under the figure. Rows of replicated points (``<metric>_std``, ``_min``, ``_max``
+    index. Markers and lines; a non-converged point is drawn hollow, a failed one (or one not
+    finished, in a table written without running) is left out and named under the figure. Rows of replicated points (``<metric>_std``, ``_min``, ``_max``
     columns) are drawn at their mean with error bars of ± one standard deviation and a band over
     the replicas' range (of magnitudes, for |δx| and |δz|)."""
     from matplotlib.lines import Line2D

@@ -142,7 +142,9 @@ def _tolerance_text() -> list[str]:
         "A part of a check is *undetermined* where such an end point failed or did not converge, or fewer "
         "than two points lie in the range; other unusable points are skipped and named.",
         "- A claim *disagrees* if any part of its check does, else it is *undetermined* if any part is (for want "
-        f"of points), else *{SPREAD_VERDICT}* if any part is, else it *agrees*.",
+        f"of points), else *{SPREAD_VERDICT}* if any part is, else it *agrees*. In an interim report "
+        "(`--report-only`) every claim of a sweep with a point not finished is *undetermined*, its summary "
+        "beginning with what the finished points alone read.",
     ]
 
 
@@ -228,7 +230,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
           + (f", {verdicts[SPREAD_VERDICT]} {SPREAD_VERDICT}." if n_replicas > 1 else "."), ""]
     if counts["unfinished"]:
         L += [f"**An interim report**: {counts['unfinished']} of the {n_points} points are not finished (their "
-              "rows say where each stands); a statement that needs one is undetermined until it finishes. "
+              "rows say where each stands); every statement of their sweeps is undetermined until they finish. "
               f"{rerun} runs them on from their checkpoints and rewrites this report.", ""]
     for sw in PAPER_SWEEPS:
         rows = rows_of(table, sw.name)

@@ -17,6 +17,9 @@ Layout of an output folder ``OUT``::
 A point whose design asks for N replicas is N runs (:meth:`hydrojam.study.spec.Study.points`),
 each its own design and folder; its row holds their mean and spread (:func:`build_table`).
 
+A table written without running (:func:`run_sweep` ``run=False``) has the status
+``unfinished`` for a point not finished yet, where it stands as its error.
+
 ``point.json``: ``{"key", "status": "ok" | "not_converged" | "failed", "error", "metrics",
 "wall_time_s", "point_time_s", "hydrojam_version"}``; ``wall_time_s`` is the wall time the point
 function reports in its metrics (hydrojam's: the load path, without meshing and writing), else
@@ -91,6 +94,7 @@ __all__ = [
     "run_point",
     "point_progress",
     "running_point",
+    "run_states",
     "run_sweep",
     "unfinished_text",
 ]
@@ -235,8 +239,9 @@ class SweepTable:
 
     Columns: ``sweep``, ``point`` (index within the sweep), ``key`` (the cache folder), one column
     per dotted design field varied anywhere in the study (that row's design value, resolved), the
-    :data:`METRIC_COLUMNS`, ``wall_time_s``, ``status``, ``error`` and ``point_dir`` (relative to
-    OUT). Undefined values are None (empty in CSV, null in Parquet), never NaN.
+    :data:`METRIC_COLUMNS`, ``wall_time_s``, ``status`` (ok, not_converged, failed; unfinished in
+    a table written without running), ``error`` and ``point_dir`` (relative to OUT). Undefined
+    values are None (empty in CSV, null in Parquet), never NaN.
     """
 
     rows: list[dict]
@@ -579,8 +584,8 @@ def run_sweep(
 
     ``run=False`` runs nothing: the table of the points finished so far, a point failed earlier
     as failed, every other one with status ``unfinished`` and where it stands as its error
-    (:func:`unfinished_text`); ``OUT`` must already hold this study (StudyError otherwise) and
-    only the table is written.
+    (:func:`unfinished_text`); ``OUT`` must already hold this study with as many replicas per
+    point (StudyError otherwise) and only the table is written.
 
     Raises StudyError for a point the simulator does not support or an ``OUT`` that holds another
     study (``OUT/study.toml`` with another name; the same name resumes), ValueError for workers < 1,
@@ -599,8 +604,8 @@ def run_sweep(
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"{out}: exists and is not a folder")
     _check_same_study(out, study)
-    if not run and not (out / "study.toml").is_file():
-        raise StudyError(f"{out}: holds no study yet (no study.toml): nothing finished to write a table from")
+    if not run:
+        _check_held_study(out, study)
     groups: dict[str, list[Point]] = {}
     for p in study.points():
         groups.setdefault(p.key, []).append(p)
@@ -612,8 +617,9 @@ def run_sweep(
     pending = [key for key in groups if key not in records]
     if not run:
         for key in pending:
-            records[key] = {"status": "unfinished",
-                            "error": unfinished_text(running_point(tuple(groups[key]), out / "points" / key))}
+            folder = out / "points" / key
+            records[key] = {"status": "unfinished", "error": unfinished_text(
+                running_point(tuple(groups[key]), folder), (folder / CHECKPOINT).is_file())}
         return _write_table(study, out, records)
 
     client = cluster = None
@@ -652,13 +658,43 @@ def _write_table(study: Study, out: Path, records: dict[str, dict]) -> SweepTabl
     return table
 
 
-def unfinished_text(running: RunningPoint | None) -> str:
+def _check_held_study(out: Path, study: Study) -> None:
+    """A table without running needs ``OUT`` to hold ``study`` already (its study.toml, the same
+    name: :func:`_check_same_study`) with the same replicas per point: with fewer, the table
+    would show replica 0 alone as the point, without its spread. StudyError otherwise."""
+    from hydrojam.study.spec import load_study
+
+    if not (out / "study.toml").is_file():
+        raise StudyError(f"{out}: holds no study yet (no study.toml): nothing finished to write a table from")
+    held = load_study(out / "study.toml").replicas
+    if held != study.replicas:
+        raise StudyError(f"replicas: {out} holds its study with {held} per point (got {study.replicas}); "
+                         f"a table of it without running needs the same (--replicas {held})")
+
+
+def run_states(out: str | os.PathLike, table: SweepTable) -> dict[str, str]:
+    """The state of every run of ``table`` (each replica's folder, relative to ``out``): its
+    point.json's status (ok, not_converged, failed), else unfinished. How many distinct designs
+    a table written without running holds in each state, as a run counts them."""
+    states = {}
+    for row in table.rows:
+        dirs = str(row.get("replica_dirs") or row.get("point_dir") or "").split(";")
+        for d in filter(None, dirs):
+            if d not in states:
+                rec = _read_record(Path(out) / d)
+                status = None if rec is None else rec.get("status")
+                states[d] = status if status in (*_FINISHED, "failed") else "unfinished"
+    return states
+
+
+def unfinished_text(running: RunningPoint | None, started: bool = False) -> str:
     """Where an unfinished run stands, in a few words, from its :func:`running_point` (None: no
-    accepted state yet): "not started", "not finished: s = 0.789 reached (47.0 deg)" or, at s =
-    1, "not finished: releasing the stabilisation (stabilised at 92.4 deg), 21 rounds, ...".
+    accepted state read; ``started``: its checkpoint exists): "not started", "not finished: s =
+    0.789 reached (47.0 deg)" or, at s = 1, "not finished: releasing the stabilisation
+    (stabilised at 92.4 deg), 21 rounds, ...".
     """
     if running is None:
-        return "not started"
+        return "not finished: no accepted state read yet" if started else "not started"
     angle = "" if running.bending_angle_deg is None else f"{running.bending_angle_deg:.1f} deg"
     if running.s < 1.0:
         return f"not finished: s = {running.s:.3f} reached" + (f" ({angle})" if angle else "")
