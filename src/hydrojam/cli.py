@@ -857,6 +857,30 @@ def status(
     console = Console()
     console.print(table)
     console.print(", ".join(f"{n} {state.replace('_', ' ')}" for state, n in st.counts().items()))
+    if st.kind == "study" and ({"unfinished", "not started"} & set(st.counts())):
+        hint = _paper_commands(out, st.name)
+        if hint:
+            console.print(hint, soft_wrap=True, highlight=False, markup=False)
+
+
+def _paper_commands(out: Path, name: str) -> str | None:
+    """For the folder of a paper study in progress (``reproduce``'s, by its study's name): the
+    commands that write its interim report and go on with it; None for another study."""
+    from hydrojam.paper.study import study_kind
+    from hydrojam.study.spec import StudyError, load_study
+
+    kind = study_kind(name)
+    if kind is None:
+        return None
+    try:
+        replicas = load_study(out / "study.toml").replicas
+    except StudyError:
+        return None
+    quick, dimension = kind
+    flags = (f"{' --dimension 3' if dimension == 3 else ''}{' --quick' if quick else ''}"
+             f"{f' --replicas {replicas}' if replicas > 1 else ''}")
+    return (f"report so far: hydrojam reproduce{flags} -o {out} --report-only\n"
+            f"go on: hydrojam reproduce{flags} -o {out}")
 
 
 def _file_system_error(err: OSError) -> str | None:

@@ -214,3 +214,14 @@ def test_table_only_counts_every_replica_as_a_run_counts_it(tmp_path, capsys):
     assert "2 distinct points (1 rows): 1 ok, 0 not converged, 1 failed, 0 not finished" in capsys.readouterr().err
     table = SweepTable.read(out)
     assert table.rows[0]["status"] == "ok" and sorted(run_states(out, table).values()) == ["failed", "ok"]
+
+
+def test_status_of_a_paper_study_in_progress_names_its_report_and_resume_commands(tmp_path, capsys):
+    from hydrojam.paper.study import paper_study
+
+    out = tmp_path / "out3d"
+    write_study(out / "study.toml", paper_study(True, replicas=2, dimension=3))
+    assert main(["status", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert f"report so far: hydrojam reproduce --dimension 3 --quick --replicas 2 -o {out} --report-only" in text
+    assert f"go on: hydrojam reproduce --dimension 3 --quick --replicas 2 -o {out}\n" in text
