@@ -1,5 +1,6 @@
 """Atomic file output (a reader never sees a half-written result) with the user's permissions,
-and the one rule for non-finite values in outputs."""
+a lock file that keeps two processes from writing one folder, and the one rule for non-finite
+values in outputs."""
 
 from __future__ import annotations
 
@@ -8,7 +9,9 @@ import errno
 import json
 import math
 import os
+import socket
 import tempfile
+import time
 import tomllib
 from pathlib import Path
 
@@ -135,3 +138,51 @@ def finite_number(value) -> float | None:
     except (TypeError, ValueError):
         return None
     return f if math.isfinite(f) else None
+
+
+class LockHeld(RuntimeError):
+    """The lock file is held by another live process (or one on another host, which cannot be
+    checked); the message names it and how to free a stale lock."""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's live process
+        return True
+    except OSError:
+        return False
+    return True
+
+
+@contextlib.contextmanager
+def hold_lock(path: str | os.PathLike):
+    """Hold the lock file ``path`` (its folder must exist) while the block runs: created
+    exclusively with this process's pid, host and start time (JSON), removed at the end. A lock
+    left by a process of this host that is no longer alive (killed) is taken over; one held by a
+    live process, or written on another host, raises :class:`LockHeld` and is left alone."""
+    path = Path(path)
+    me = {"pid": os.getpid(), "host": socket.gethostname(), "started": time.strftime("%Y-%m-%d %H:%M:%S")}
+    for _ in range(2):
+        try:
+            fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, file_mode())
+        except FileExistsError:
+            held = read_json_dict(path) or {}
+            pid, host = held.get("pid"), held.get("host")
+            if host == me["host"] and isinstance(pid, int) and not _alive(pid):
+                path.unlink(missing_ok=True)  # its process was killed: stale
+                continue
+            who = f"process {pid} on {host}" + (f" since {held['started']}" if held.get("started") else "")
+            raise LockHeld(f"{path.parent}: in use by {who} (its lock file {path.name}); wait for it or stop "
+                           f"it, or, if nothing runs there, delete {path}") from None
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(me, f)
+        break
+    else:  # pragma: no cover - another process took the stale lock between our two tries
+        raise LockHeld(f"{path.parent}: in use (its lock file {path.name} was taken over by another process)")
+    try:
+        yield path
+    finally:
+        path.unlink(missing_ok=True)

@@ -857,6 +857,10 @@ def status(
     console = Console()
     console.print(table)
     console.print(", ".join(f"{n} {state.replace('_', ' ')}" for state, n in st.counts().items()))
+    if st.lock is not None:
+        console.print(f"in use by process {st.lock.get('pid')} on {st.lock.get('host')} since "
+                      f"{st.lock.get('started')} (its lock file; a killed run's is taken over by the next)",
+                      soft_wrap=True, highlight=False, markup=False)
     if st.kind == "study" and ({"unfinished", "not started"} & set(st.counts())):
         hint = _paper_commands(out, st.name)
         if hint:

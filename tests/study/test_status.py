@@ -225,3 +225,37 @@ def test_status_of_a_paper_study_in_progress_names_its_report_and_resume_command
     text = capsys.readouterr().out
     assert f"report so far: hydrojam reproduce --dimension 3 --quick --replicas 2 -o {out} --report-only" in text
     assert f"go on: hydrojam reproduce --dimension 3 --quick --replicas 2 -o {out}\n" in text
+
+
+def test_one_run_at_a_time_writes_a_study_folder(study_folder):
+    """A second run into a folder that a live process is running (its lock file) is refused before
+    it writes anything; a lock left by a killed process is taken over, and removed after the run."""
+    import os
+    import subprocess
+    import sys
+
+    from hydrojam._io import hold_lock
+    from hydrojam.study.spec import StudyError, load_study
+    from hydrojam.study.sweep import LOCK_FILE, run_sweep
+
+    out, keys = study_folder
+    study = load_study(out / "study.toml")
+    def point_fn(design, folder):
+        return {"converged": True, "bending_angle_deg": 1.0, "s_reached": 1.0}
+
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    with hold_lock(out / LOCK_FILE):  # this live process runs the folder
+        assert folder_status(out).lock["pid"] == os.getpid()
+        with pytest.raises(StudyError, match=r"in use by process \d+ on .*delete .*\.hydrojam\.lock"):
+            run_sweep(study, out, workers=1, point_fn=point_fn)
+        assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file() and p.name != LOCK_FILE} == before
+    assert not (out / LOCK_FILE).exists()
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    pid = int(dead.stdout)  # exited: as a killed run's
+    import json
+    import socket
+
+    (out / LOCK_FILE).write_text(json.dumps({"pid": pid, "host": socket.gethostname()}))
+    table = run_sweep(study, out, workers=1, point_fn=point_fn, progress_interval_s=0.05)
+    assert [r["status"] for r in table.rows] == ["ok"] * 5  # the four not finished ran (in the workers)
+    assert not (out / LOCK_FILE).exists() and os.getpid() != pid

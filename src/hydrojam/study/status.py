@@ -17,7 +17,7 @@ from pathlib import Path
 from hydrojam._io import finite_number, read_json_dict
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress
 from hydrojam.study.spec import Point, StudyError, load_study
-from hydrojam.study.sweep import running_point
+from hydrojam.study.sweep import LOCK_FILE, running_point
 
 __all__ = ["FolderStatus", "RunStatus", "StatusError", "folder_status", "release_metrics"]
 
@@ -60,11 +60,13 @@ class RunStatus:
 @dataclass(frozen=True)
 class FolderStatus:
     """``kind``: "study" or "run"; ``name``: the study's name, or the run folder's; ``runs``: in
-    the study's order."""
+    the study's order; ``lock``: a study folder's lock file as written by the run that holds it
+    (pid, host, started; :data:`hydrojam.study.sweep.LOCK_FILE`), None when no run holds it."""
 
     kind: str
     name: str
     runs: tuple[RunStatus, ...]
+    lock: dict | None = None
 
     def counts(self) -> dict[str, int]:
         """How many runs are in each state (:data:`STATES`), the empty ones left out."""
@@ -164,7 +166,7 @@ def _folder_status(out: Path) -> FolderStatus:
         # a rerun with fewer sweeps (`reproduce --sweep ...`) rewrites study.toml with those only
         others = sorted(f for f in (out / "points").glob("*") if f.is_dir() and f.name not in groups)
         runs += [_status(f, f.name, (), read_json_dict(f / "point.json")) for f in others]
-        return FolderStatus("study", study.name, tuple(runs))
+        return FolderStatus("study", study.name, tuple(runs), read_json_dict(out / LOCK_FILE))
     if (out / "design.toml").is_file() and any((out / n).is_file()
                                                for n in ("history.csv", CHECKPOINT, "metrics.json")):
         return FolderStatus("run", out.name, (_status(out, "", (), _run_outcome(out)),))

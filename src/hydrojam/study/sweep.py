@@ -35,6 +35,7 @@ the same path (a shared file system) and should run one thread each (``--nthread
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
@@ -53,7 +54,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hydrojam._io import atomic_path, finite_number, finite_or_none, read_json_dict, read_toml, write_text_atomic
+from hydrojam._io import (LockHeld, atomic_path, finite_number, finite_or_none, hold_lock, make_folder, read_json_dict,
+                          read_toml, write_text_atomic)
 from hydrojam._validation import owner_model
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress, release_progress
 from hydrojam.actuator.design import Design, DesignError
@@ -73,6 +75,8 @@ METRIC_COLUMNS: dict[str, type] = {m.name: m.type for m in (*STATE_METRICS, *map
 _HEAD: dict[str, type] = {"sweep": str, "point": int, "key": str}
 _TAIL: dict[str, type] = {"wall_time_s": metric("wall_time_s").type, "status": str, "error": str, "point_dir": str}
 _FINISHED = ("ok", "not_converged")
+#: the lock file a run holds in OUT (:func:`hydrojam._io.hold_lock`): one run at a time writes a folder
+LOCK_FILE = ".hydrojam.lock"
 #: the metrics whose spread over a point's replicas the table carries (``<name>_std``, ``_min``, ``_max``)
 SPREAD_METRICS: tuple[str, ...] = tuple(m.name for m in STATE_METRICS if m.type is float)
 _SPREAD: dict[str, type] = {f"{name}_{stat}": float for name in SPREAD_METRICS for stat in ("std", "min", "max")}
@@ -587,9 +591,13 @@ def run_sweep(
     (:func:`unfinished_text`); ``OUT`` must already hold this study with as many replicas per
     point (StudyError otherwise) and only the table is written.
 
-    Raises StudyError for a point the simulator does not support or an ``OUT`` that holds another
-    study (``OUT/study.toml`` with another name; the same name resumes), ValueError for workers < 1,
-    SchedulerError when the scheduler cannot be reached; none of them writes anything.
+    One run at a time writes ``OUT``: it holds the lock file ``OUT/.hydrojam.lock`` while it runs
+    (:data:`LOCK_FILE`; a lock left by a killed process of this host is taken over).
+
+    Raises StudyError for a point the simulator does not support, an ``OUT`` that holds another
+    study (``OUT/study.toml`` with another name; the same name resumes) or that another run is
+    writing (its lock file), ValueError for workers < 1, SchedulerError when the scheduler cannot
+    be reached; none of them writes anything.
     """
     from hydrojam.actuator.model import check_supported
 
@@ -609,11 +617,7 @@ def run_sweep(
     groups: dict[str, list[Point]] = {}
     for p in study.points():
         groups.setdefault(p.key, []).append(p)
-    records: dict[str, dict] = {}
-    for key in groups:
-        rec = _read_record(out / "points" / key)
-        if rec is not None and (rec.get("status") in _FINISHED or (not run and rec.get("status") == "failed")):
-            records[key] = rec
+    records = _finished_records(out, groups, failed=not run)
     pending = [key for key in groups if key not in records]
     if not run:
         for key in pending:
@@ -623,9 +627,16 @@ def run_sweep(
         return _write_table(study, out, records)
 
     client = cluster = None
+    lock = contextlib.ExitStack()
     try:
         if scheduler is not None:  # connected only when there is something to run
             client = _connect(scheduler) if pending else _check_address(scheduler)
+        try:
+            lock.enter_context(hold_lock(make_folder(out) / LOCK_FILE))
+        except LockHeld as err:
+            raise StudyError(str(err)) from None
+        records = _finished_records(out, groups)  # again: a run that held the lock may have finished some
+        pending = [key for key in groups if key not in records]
         write_study(out / "study.toml", study)
         total, done = len(groups), 0
         for key in groups:
@@ -640,12 +651,24 @@ def run_sweep(
             interval = PROGRESS_INTERVAL_S if progress_interval_s is None else progress_interval_s
             done = _compute(client, groups, pending, out, point_fn, records, on_point, done, total, on_running,
                             interval)
+        return _write_table(study, out, records)
     finally:
         if client is not None:
             client.close()
         if cluster is not None:
             cluster.close()
-    return _write_table(study, out, records)
+        lock.close()
+
+
+def _finished_records(out: Path, groups: dict[str, list[Point]], failed: bool = False) -> dict[str, dict]:
+    """The outcome records (point.json) of the points of ``groups`` finished in ``out`` (ok or
+    not converged; with ``failed``, failed ones too), by key."""
+    records = {}
+    for key in groups:
+        rec = _read_record(out / "points" / key)
+        if rec is not None and (rec.get("status") in _FINISHED or (failed and rec.get("status") == "failed")):
+            records[key] = rec
+    return records
 
 
 def _write_table(study: Study, out: Path, records: dict[str, dict]) -> SweepTable:
