@@ -406,10 +406,12 @@ def _run_summary(title: str, metrics: dict) -> Table:
     return table
 
 
-def _point_label(outcome) -> str:
+def _point_label(points) -> str:
+    """A study point in a few words from the study points sharing its design: sweep[index],
+    replica, values (a replica of `hydrojam run --replicas`: its number)."""
     from hydrojam.study.replicas import REPLICA_STUDY
 
-    p = outcome.points[0]
+    p = points[0]
     if p.sweep == REPLICA_STUDY and list(p.values) == ["replicas.count"]:  # `hydrojam run --replicas`
         return f"replica {p.replica}"
     values = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in p.values.items())
@@ -475,7 +477,7 @@ def _running_text(running) -> str:
     progress."""
     from hydrojam._format import duration
 
-    return "; ".join(f"{_point_label(r)}: s = {r.s:.3f} after {duration(r.wall_time_s)}"
+    return "; ".join(f"{_point_label(r.points)}: s = {r.s:.3f} after {duration(r.wall_time_s)}"
                      + ("" if r.release is None else f", {_release_text(r.release)}") for r in running)
 
 
@@ -529,10 +531,10 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
         counts[outcome.status] = counts.get(outcome.status, 0) + 1
         cached[0] += outcome.cached
         if outcome.status == "failed":
-            info = f"[red]{_point_label(outcome)}: {outcome.error}[/red]"
+            info = f"[red]{_point_label(outcome.points)}: {outcome.error}[/red]"
         else:
             angle = (outcome.metrics or {}).get("bending_angle_deg")
-            info = _point_label(outcome) + (f": {angle:.1f} deg" if isinstance(angle, (int, float)) else "")
+            info = _point_label(outcome.points) + (f": {angle:.1f} deg" if isinstance(angle, (int, float)) else "")
             if outcome.status == "not_converged":
                 info = f"[yellow]{info} (stopped early)[/yellow]"
         info += " (cached)" if outcome.cached else ""
@@ -846,7 +848,7 @@ def status(
         table.add_column(name, justify=justify)
     colours = {"ok": "green", "not_converged": "yellow", "failed": "red", "unfinished": "cyan"}
     for r in st.runs:
-        label = _point_label(r) if r.points else (f"points/{r.key} (not in study.toml)" if r.key else st.name)
+        label = _point_label(r.points) if r.points else (f"points/{r.key} (not in study.toml)" if r.key else st.name)
         state = r.state.replace("_", " ")
         table.add_row(label, f"[{colours[r.state]}]{state}[/]" if r.state in colours else state,
                       "" if r.s is None else f"{r.s:.3f}",
@@ -865,6 +867,41 @@ def status(
         hint = _paper_commands(out, st.name)
         if hint:
             console.print(hint, soft_wrap=True, highlight=False, markup=False)
+
+
+@app.command()
+def snapshot(
+    out: Path = typer.Argument(..., help="Output folder of `hydrojam sweep`, `reproduce`, `design-map`, `run --replicas` or `run`, in progress."),
+    dest: Path = typer.Option(..., "-o", "--out", help="Folder for the snapshots: <name>.vtu (ParaView) and <name>.png per unfinished run."),
+) -> None:
+    """The current state of every unfinished run in OUT, as files: its last accepted state on
+    the load path, or at s = 1 its release's current centre (not an equilibrium yet), read from
+    its checkpoint; DEST/<key>.vtu and DEST/<key>.png (as final.png). Nothing runs; a run going
+    on elsewhere is drawn at its last checkpoint. Exit status 0, 2 for a folder that is not
+    hydrojam's or a DEST that cannot be a folder.
+    """
+    from hydrojam.study.snapshot import write_snapshots
+    from hydrojam.study.status import StatusError
+
+    if not out.is_dir():
+        raise InputError(f"{out}: {'not a folder' if out.exists() else 'no such folder'}")
+    if dest.exists() and not dest.is_dir():
+        raise InputError(f"--out: {dest} exists and is not a folder")
+    console = Console(stderr=True)
+    try:
+        shots = write_snapshots(out, dest, on_run=lambda name, points: console.print(
+            f"drawing {_point_label(points) if points else name}...", highlight=False))
+    except StatusError as err:
+        raise InputError(str(err)) from None
+    if not shots:
+        console.print(f"hydrojam: no unfinished run with a checkpoint in {out}: nothing drawn", soft_wrap=True)
+        return
+    for shot in shots:
+        label = _point_label(shot.points) if shot.points else shot.name
+        where = "its release under way" if shot.releasing else f"s = {shot.s:.3f}"
+        m = shot.metrics
+        console.print(f"{label}: {where}, {m['bending_angle_deg']:.2f} deg, tip ({m['tip_dx_mm']:.1f}, "
+                      f"{m['tip_dz_mm']:.1f}) mm: {shot.vtu}, {shot.png}", soft_wrap=True, highlight=False)
 
 
 def _paper_commands(out: Path, name: str) -> str | None:

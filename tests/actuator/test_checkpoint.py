@@ -224,3 +224,38 @@ def test_a_release_under_way_is_measured_from_its_folder(tmp_path, design, refer
     monkeypatch.setenv("COLUMNS", "250")
     assert main(["status", str(tmp_path / "rel"), "--measure"]) == 0
     assert f"now {expected['bending_angle_deg']:.2f} deg" in capsys.readouterr().out
+
+
+def test_a_snapshot_draws_where_an_unfinished_run_is(tmp_path, design, monkeypatch, capsys):
+    """`hydrojam snapshot`: a run stopped on its path is drawn at its last accepted state (the
+    checkpoint's positions), one stopped in its release at the release's current centre, as a
+    VTU whose points plus displacement are those positions and a picture; a finished folder
+    draws nothing; a folder that is not hydrojam's is refused (2)."""
+    import meshio
+
+    from hydrojam.study.snapshot import current_state
+
+    _interrupted(tmp_path / "path", design, stop_at_state=3)
+    _interrupted(tmp_path / "rel", design, stop_in_release=True, monkeypatch=monkeypatch)
+    model = build_model(design)
+    for name, releasing in (("path", False), ("rel", True)):
+        ck = load_checkpoint(tmp_path / name / CHECKPOINT, model.design, model.mesh.points.shape)
+        x = ck.release.x if releasing else ck.xs[-1]
+        _, state, got_releasing = current_state(tmp_path / name)
+        assert got_releasing is releasing and np.array_equal(state.x, x)
+        assert state.s == (1.0 if releasing else ck.states[-1]["s"])
+        assert main(["snapshot", str(tmp_path / name), "-o", str(tmp_path / "shots")]) == 0
+        vtu = meshio.read(tmp_path / "shots" / f"{name}.vtu")
+        # the VTU's (x, 0, z) points plus displacement give the positions back, to the round-off of
+        # one subtraction and one addition (the states of neighbouring steps differ by 1e-3 mm or more)
+        deformed = (vtu.points + vtu.point_data["displacement"])[:, [0, 2]]
+        assert np.abs(deformed - x).max() <= 1e-12 * np.abs(x).max()
+        assert (tmp_path / "shots" / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        text = capsys.readouterr().err
+        assert ("its release under way" if releasing else f"s = {state.s:.3f}") in text
+        assert f"{state.metrics['bending_angle_deg']:.2f} deg" in text
+    (tmp_path / "path" / CHECKPOINT).unlink()
+    assert main(["snapshot", str(tmp_path / "path"), "-o", str(tmp_path / "none")]) == 0
+    assert "nothing drawn" in capsys.readouterr().err and not (tmp_path / "none").exists()
+    assert main(["snapshot", str(tmp_path / "shots"), "-o", str(tmp_path / "none")]) == 2
+    assert "not an output folder" in capsys.readouterr().err and not (tmp_path / "none").exists()
