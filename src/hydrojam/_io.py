@@ -140,6 +140,11 @@ def finite_number(value) -> float | None:
     return f if math.isfinite(f) else None
 
 
+#: the lock file a run holds in its output folder while it writes there (:func:`hold_lock`):
+#: ``hydrojam run``, and a study's run (``sweep``, ``reproduce``, ...) in the study's folder
+FOLDER_LOCK = ".hydrojam.lock"
+
+
 class LockHeld(RuntimeError):
     """The lock file is held by another live process (or one on another host, which cannot be
     checked); the message names it and how to free a stale lock."""

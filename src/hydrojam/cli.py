@@ -240,11 +240,7 @@ def run_design(
     the release, and removed when it ends. Run the same design into the same OUT again and it goes
     on from there (--fresh: from s = 0).
     """
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    from hydrojam.actuator.model import build_model
-    from hydrojam.actuator.results import ResultWriter
-    from hydrojam.actuator.simulate import simulate
+    from hydrojam._io import FOLDER_LOCK, LockHeld, hold_lock
 
     replicas = _check_replicas(replicas)
     if not design_file.is_file():
@@ -263,6 +259,22 @@ def run_design(
         raise InputError(f"{'--workers' if workers is not None else '--scheduler'}: only with --replicas N > 1 "
                          "(a single run is one process)")
     make_folder(out)  # before meshing: a folder that cannot be made is refused at once
+    try:
+        with hold_lock(out / FOLDER_LOCK):
+            _run_one(design, design_file, out, vtu, fresh, quiet)
+    except LockHeld as err:
+        raise InputError(str(err)) from None
+
+
+def _run_one(design, design_file: Path, out: Path, vtu: bool, fresh: bool, quiet: bool) -> None:
+    """Run ``design`` into ``out`` (a folder this process holds) with a progress bar, going on
+    from its checkpoint unless ``fresh``; the summary; exit 1 when the solver stopped early."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from hydrojam.actuator.model import build_model
+    from hydrojam.actuator.results import ResultWriter
+    from hydrojam.actuator.simulate import simulate
+
     console = Console(stderr=True)
     model = build_model(design)
     writer = ResultWriter(out, model, vtu=vtu)

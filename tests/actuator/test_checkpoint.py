@@ -259,3 +259,24 @@ def test_a_snapshot_draws_where_an_unfinished_run_is(tmp_path, design, monkeypat
     assert "nothing drawn" in capsys.readouterr().err and not (tmp_path / "none").exists()
     assert main(["snapshot", str(tmp_path / "shots"), "-o", str(tmp_path / "none")]) == 2
     assert "not an output folder" in capsys.readouterr().err and not (tmp_path / "none").exists()
+
+
+def test_hydrojam_run_into_a_folder_another_run_holds_is_refused(tmp_path, design, capsys):
+    """Two `hydrojam run` into one folder would write the same checkpoint and history: the second,
+    while the first holds the folder's lock, is refused before it writes (exit 2, one line naming
+    the process); the lock is gone after the run."""
+    import os
+
+    from hydrojam._io import FOLDER_LOCK, hold_lock
+
+    design_file = tmp_path / "design.toml"
+    write_design(design_file, design)
+    out = tmp_path / "out"
+    out.mkdir()
+    with hold_lock(out / FOLDER_LOCK):
+        assert main(["run", str(design_file), "-o", str(out), "--no-vtu"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and f"in use by process {os.getpid()}" in err
+        assert sorted(p.name for p in out.iterdir()) == [FOLDER_LOCK]
+    assert main(["run", str(design_file), "-o", str(out), "--no-vtu"]) == 0
+    assert not (out / FOLDER_LOCK).exists() and (out / "metrics.json").is_file()

@@ -60,7 +60,7 @@ class RunStatus:
 @dataclass(frozen=True)
 class FolderStatus:
     """``kind``: "study" or "run"; ``name``: the study's name, or the run folder's; ``runs``: in
-    the study's order; ``lock``: a study folder's lock file as written by the run that holds it
+    the study's order; ``lock``: the folder's lock file as written by the run that holds it
     (pid, host, started; :data:`hydrojam.study.sweep.LOCK_FILE`), None when no run holds it."""
 
     kind: str
@@ -169,6 +169,6 @@ def _folder_status(out: Path) -> FolderStatus:
         return FolderStatus("study", study.name, tuple(runs), read_json_dict(out / LOCK_FILE))
     if (out / "design.toml").is_file() and any((out / n).is_file()
                                                for n in ("history.csv", CHECKPOINT, "metrics.json")):
-        return FolderStatus("run", out.name, (_status(out, "", (), _run_outcome(out)),))
+        return FolderStatus("run", out.name, (_status(out, "", (), _run_outcome(out)),), read_json_dict(out / LOCK_FILE))
     raise StatusError(f"{out}: not an output folder of hydrojam (no study.toml, and no design.toml with a run's "
                       "history.csv, checkpoint.npz or metrics.json)")

@@ -54,7 +54,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hydrojam._io import (LockHeld, atomic_path, finite_number, finite_or_none, hold_lock, make_folder, read_json_dict,
+from hydrojam._io import (FOLDER_LOCK, LockHeld, atomic_path, finite_number, finite_or_none, hold_lock, make_folder, read_json_dict,
                           read_toml, write_text_atomic)
 from hydrojam._validation import owner_model
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress, release_progress
@@ -76,7 +76,7 @@ _HEAD: dict[str, type] = {"sweep": str, "point": int, "key": str}
 _TAIL: dict[str, type] = {"wall_time_s": metric("wall_time_s").type, "status": str, "error": str, "point_dir": str}
 _FINISHED = ("ok", "not_converged")
 #: the lock file a run holds in OUT (:func:`hydrojam._io.hold_lock`): one run at a time writes a folder
-LOCK_FILE = ".hydrojam.lock"
+LOCK_FILE = FOLDER_LOCK
 #: the metrics whose spread over a point's replicas the table carries (``<name>_std``, ``_min``, ``_max``)
 SPREAD_METRICS: tuple[str, ...] = tuple(m.name for m in STATE_METRICS if m.type is float)
 _SPREAD: dict[str, type] = {f"{name}_{stat}": float for name in SPREAD_METRICS for stat in ("std", "min", "max")}
