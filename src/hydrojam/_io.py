@@ -183,7 +183,8 @@ def hold_lock(path: str | os.PathLike):
             if host == me["host"] and isinstance(pid, int) and not _alive(pid):
                 path.unlink(missing_ok=True)  # its process was killed: stale
                 continue
-            who = f"process {pid} on {host}" + (f" since {held['started']}" if held.get("started") else "")
+            who = (f"process {pid} on {host}" + (f" since {held['started']}" if held.get("started") else "")
+                   if held else "an unknown process (the lock file cannot be read)")
             raise LockHeld(f"{path.parent}: in use by {who} (its lock file {path.name}); wait for it or stop "
                            f"it, or, if nothing runs there, delete {path}") from None
         with os.fdopen(fd, "w", encoding="utf-8") as f:
