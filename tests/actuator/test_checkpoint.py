@@ -280,3 +280,33 @@ def test_hydrojam_run_into_a_folder_another_run_holds_is_refused(tmp_path, desig
         assert sorted(p.name for p in out.iterdir()) == [FOLDER_LOCK]
     assert main(["run", str(design_file), "-o", str(out), "--no-vtu"]) == 0
     assert not (out / FOLDER_LOCK).exists() and (out / "metrics.json").is_file()
+
+
+def test_an_interim_shapes_figure_draws_an_unfinished_point_as_it_stands(tmp_path, design, monkeypatch):
+    """The shapes figure of a table written without running: an unfinished point with a
+    checkpoint is drawn from it (the snapshot's drawing, its title saying "not finished"), one
+    without a checkpoint keeps the text panel."""
+    from hydrojam.paper import figures
+
+    _interrupted(tmp_path / "path", design, stop_at_state=3)
+    (tmp_path / "none").mkdir()
+    drawn, titles = [], []
+    real = figures._current_drawing
+
+    def spy(point_dir):
+        got = real(point_dir)
+        drawn.append((point_dir.name, got is not None))
+        if got is not None:
+            titles.append(got[1])
+        return got
+
+    monkeypatch.setattr(figures, "_current_drawing", spy)
+    rows = [{"particle_layers": n, "status": "unfinished", "error": "not finished", "point_dir": d}
+            for n, d in ((1, "path"), (2, "none"))]
+    figures.plot_shapes(tmp_path, rows, "particle_layers", tmp_path / "shapes.png")
+    assert drawn == [("path", True), ("none", False)]
+    model = build_model(design)
+    ck = load_checkpoint(tmp_path / "path" / CHECKPOINT, model.design, model.mesh.points.shape)
+    assert titles == [f"not finished: s = {ck.states[-1]['s']:.2f}, θ now "
+                      f"{ck.states[-1]['metrics']['bending_angle_deg']:.1f}°"]
+    assert (tmp_path / "shapes.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -108,6 +108,26 @@ def _body_outlines(tris: np.ndarray, body: np.ndarray) -> np.ndarray:
     return uniq[counts == 1, 1:]
 
 
+def _current_drawing(point_dir: Path):
+    """(drawing as :func:`_read_drawing` returns it, title line) of the unfinished run in
+    ``point_dir`` as it stands now (:func:`hydrojam.study.snapshot.current_state`: its checkpoint
+    on the model of its design.toml, not an equilibrium), or None where it has no checkpoint."""
+    import tempfile
+
+    from hydrojam.actuator.results import write_vtu
+    from hydrojam.study.snapshot import current_state
+
+    got = current_state(point_dir)
+    if got is None:
+        return None
+    model, state, releasing = got
+    with tempfile.TemporaryDirectory() as tmp:
+        write_vtu(Path(tmp) / "final.vtu", model, state)
+        drawing = _read_drawing(Path(tmp))
+    where = "releasing" if releasing else f"s = {state.s:.2f}"
+    return drawing, f"not finished: {where}, θ now {state.metrics['bending_angle_deg']:.1f}°"
+
+
 def _failure_text(row: dict, reason: str | None = None) -> str:
     """Why a panel is empty, wrapped to fit it."""
     if reason is None and point_status(row) == "unfinished":
@@ -124,8 +144,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     at the same scale (shared limits, equal aspect): membrane light grey, strain-limit layer dark
     grey, particles blue, read from ``OUT/<point_dir>/final.vtu``; the undeformed outer outline
     dashed (from the point's design.toml); the title gives the parameter and the bending angle.
-    A failed point (or one without final.vtu) gets an empty panel saying why, an unfinished one
-    (a table written without running) one saying where it stands. A 3D point is
+    A failed point (or one without final.vtu) gets an empty panel saying why. An unfinished one
+    (a table written without running) is drawn as it stands now, from its checkpoint (its title
+    in grey says so: not an equilibrium), or where it has none, gets a panel saying so. A 3D point is
     drawn as its section y = 0 (the symmetry plane: half of every particle, the walls and the
     strain-limit layer cut through the middle), seen along -y, as in its ``final.png``. Lengths in mm.
     """
@@ -139,8 +160,18 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     panels = []
     for row in rows:
         pdir = out / str(row.get("point_dir") or "")
-        panel = {"row": row, "shape": None, "outline": None, "failed": None, "section": False}
-        if point_status(row) in ("failed", "unfinished") or not row.get("point_dir"):
+        panel = {"row": row, "shape": None, "outline": None, "failed": None, "section": False, "now": None}
+        if point_status(row) == "unfinished" and row.get("point_dir"):
+            try:
+                current = _current_drawing(pdir)
+            except Exception:  # noqa: BLE001 - a checkpoint being rewritten: the text panel instead
+                current = None
+            if current is None:
+                panel["failed"] = _failure_text(row)
+            else:
+                (pts, tris, body, panel["outline"], panel["section"]), panel["now"] = current
+                panel["shape"] = (pts, tris, body)
+        elif point_status(row) in ("failed", "unfinished") or not row.get("point_dir"):
             panel["failed"] = _failure_text(row)
         else:
             try:
@@ -195,6 +226,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         ax.add_collection(LineCollection(pts[_body_outlines(tris, body)], colors="0.2", linewidths=0.4))
         angle = number(row.get("bending_angle_deg"))
         title = head + (f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
+        if panel["now"] is not None:
+            ax.set_title(f"{head}\n{panel['now']}", fontsize=9, color="0.4")
+            continue
         if point_status(row) == "not_converged":
             title += " (not converged)"
         ax.set_title(title, fontsize=9, color="tab:red" if point_status(row) == "not_converged" else "k")
@@ -204,8 +238,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
                Line2D([], [], ls="--", color="0.5", label="undeformed outline")]
     fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
     where = "3D, section y = 0; " if section else ""
+    now = "; grey titles: not finished, drawn as they stand (not equilibria)" if any(p["now"] for p in panels) else ""
     fig.suptitle(f"Deformed actuators, final states ({_sweep_for(param, label, unit)[1]}); "
-                 f"{where}strain-limit layer on the -x side", fontsize=10)
+                 f"{where}strain-limit layer on the -x side{now}", fontsize=10)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=DPI, format="png")
 
