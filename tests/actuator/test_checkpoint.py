@@ -233,7 +233,7 @@ def test_a_snapshot_draws_where_an_unfinished_run_is(tmp_path, design, monkeypat
     draws nothing; a folder that is not hydrojam's is refused (2)."""
     import meshio
 
-    from hydrojam.study.snapshot import current_state
+    from hydrojam.study.status import current_state
 
     _interrupted(tmp_path / "path", design, stop_at_state=3)
     _interrupted(tmp_path / "rel", design, stop_in_release=True, monkeypatch=monkeypatch)

@@ -234,9 +234,9 @@ def test_one_run_at_a_time_writes_a_study_folder(study_folder):
     import subprocess
     import sys
 
-    from hydrojam._io import hold_lock
+    from hydrojam._io import FOLDER_LOCK as LOCK_FILE, hold_lock
     from hydrojam.study.spec import StudyError, load_study
-    from hydrojam.study.sweep import LOCK_FILE, run_sweep
+    from hydrojam.study.sweep import run_sweep
 
     out, keys = study_folder
     study = load_study(out / "study.toml")

@@ -110,12 +110,12 @@ def _body_outlines(tris: np.ndarray, body: np.ndarray) -> np.ndarray:
 
 def _current_drawing(point_dir: Path):
     """(drawing as :func:`_read_drawing` returns it, title line) of the unfinished run in
-    ``point_dir`` as it stands now (:func:`hydrojam.study.snapshot.current_state`: its checkpoint
+    ``point_dir`` as it stands now (:func:`hydrojam.study.status.current_state`: its checkpoint
     on the model of its design.toml, not an equilibrium), or None where it has no checkpoint."""
     import tempfile
 
     from hydrojam.actuator.results import write_vtu
-    from hydrojam.study.snapshot import current_state
+    from hydrojam.study.status import current_state
 
     got = current_state(point_dir)
     if got is None:

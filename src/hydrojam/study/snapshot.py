@@ -3,7 +3,8 @@ a 3D point of a long study runs for hours and writes its VTU and picture only wh
 its checkpoint holds where it is now. Each unfinished run of a study's or a run's output folder
 (:func:`hydrojam.study.status.folder_status`) gets ``DIR/<name>.vtu`` (ParaView; a 3D half model
 mirrored) and ``DIR/<name>.png`` (as ``final.png``), of its last accepted state on the load path,
-or at s = 1 of its release's current centre, which is not an equilibrium yet.
+or at s = 1 of its release's current centre, which is not an equilibrium yet
+(:func:`hydrojam.study.status.current_state`).
 
 Reads the runs' folders only (their design.toml and checkpoint.npz): a run going on in another
 process is seen at its last checkpoint. Lengths in mm.
@@ -16,11 +17,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hydrojam._io import make_folder
-from hydrojam.actuator.checkpoint import CHECKPOINT
 from hydrojam.study.spec import Point
-from hydrojam.study.status import folder_status
+from hydrojam.study.status import current_state, folder_status
 
-__all__ = ["Snapshot", "current_state", "write_snapshots"]
+__all__ = ["Snapshot", "write_snapshots"]
 
 
 @dataclass(frozen=True)
@@ -37,32 +37,6 @@ class Snapshot:
     metrics: dict
     vtu: Path
     png: Path
-
-
-def current_state(folder: str | os.PathLike):
-    """(model, state, releasing) of the unfinished run in ``folder`` from its design.toml and
-    checkpoint: the last accepted state (a :class:`~hydrojam.actuator.simulate.StepState`), or at
-    s = 1 the release's current centre with ``releasing`` True; None where the folder has no
-    checkpoint that fits its design (the model is built: seconds in 2D, up to a minute for a long
-    3D chamber)."""
-    from hydrojam.actuator.checkpoint import CheckpointError, load_checkpoint
-    from hydrojam.actuator.design import DesignError, load_design
-    from hydrojam.actuator.model import build_model, measure
-    from hydrojam.actuator.simulate import StepState
-
-    folder = Path(folder)
-    if not (folder / CHECKPOINT).is_file():
-        return None
-    try:
-        model = build_model(load_design(folder / "design.toml"))
-        ck = load_checkpoint(folder / CHECKPOINT, model.design, model.mesh.points.shape)
-    except (OSError, DesignError, CheckpointError):
-        return None
-    releasing = ck.release is not None
-    x, s = (ck.release.x, 1.0) if releasing else (ck.xs[-1], float(ck.states[-1]["s"]))
-    mu, T = model.stimulus(s)
-    state = StepState(len(ck.states), s, mu, T, x, measure(model, x), 0, ck.elapsed_s)
-    return model, state, releasing
 
 
 def write_snapshots(out: str | os.PathLike, dest: str | os.PathLike, on_run=None) -> list[Snapshot]:

@@ -14,12 +14,12 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from hydrojam._io import finite_number, read_json_dict
+from hydrojam._io import FOLDER_LOCK, finite_number, read_json_dict
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress
 from hydrojam.study.spec import Point, StudyError, load_study
-from hydrojam.study.sweep import LOCK_FILE, running_point
+from hydrojam.study.sweep import running_point
 
-__all__ = ["FolderStatus", "RunStatus", "StatusError", "folder_status", "release_metrics"]
+__all__ = ["FolderStatus", "RunStatus", "StatusError", "current_state", "folder_status", "release_metrics"]
 
 #: the states of a run, in the order a summary counts them
 STATES = ("ok", "not_converged", "failed", "unfinished", "not started")
@@ -61,7 +61,7 @@ class RunStatus:
 class FolderStatus:
     """``kind``: "study" or "run"; ``name``: the study's name, or the run folder's; ``runs``: in
     the study's order; ``lock``: the folder's lock file as written by the run that holds it
-    (pid, host, started; :data:`hydrojam.study.sweep.LOCK_FILE`), None when no run holds it."""
+    (pid, host, started; :data:`hydrojam._io.FOLDER_LOCK`), None when no run holds it."""
 
     kind: str
     name: str
@@ -107,22 +107,39 @@ def _status(folder: Path, key: str, points: tuple[Point, ...], outcome: dict | N
                      running.release, updated, error)
 
 
-def release_metrics(folder: str | os.PathLike) -> dict | None:
-    """The state metrics (:func:`~hydrojam.actuator.model.measure`: bending angle [deg], tip [mm],
-    ...) of the current centre of the release in ``folder``'s checkpoint, from the design in its
-    design.toml (the model is built: seconds in 2D, up to a minute for a long 3D chamber). None
-    where there is no release under way or the checkpoint does not fit the design."""
+def current_state(folder: str | os.PathLike):
+    """(model, state, releasing) of the unfinished run in ``folder`` from its design.toml and
+    checkpoint: the last accepted state (a :class:`~hydrojam.actuator.simulate.StepState`), or at
+    s = 1 the release's current centre with ``releasing`` True; None where the folder has no
+    checkpoint that fits its design (the model is built: seconds in 2D, up to a minute for a long
+    3D chamber)."""
     from hydrojam.actuator.checkpoint import CheckpointError, load_checkpoint
     from hydrojam.actuator.design import DesignError, load_design
     from hydrojam.actuator.model import build_model, measure
+    from hydrojam.actuator.simulate import StepState
 
     folder = Path(folder)
+    if not (folder / CHECKPOINT).is_file():
+        return None
     try:
         model = build_model(load_design(folder / "design.toml"))
         ck = load_checkpoint(folder / CHECKPOINT, model.design, model.mesh.points.shape)
     except (OSError, DesignError, CheckpointError):
         return None
-    return None if ck.release is None else measure(model, ck.release.x)
+    releasing = ck.release is not None
+    x, s = (ck.release.x, 1.0) if releasing else (ck.xs[-1], float(ck.states[-1]["s"]))
+    mu, T = model.stimulus(s)
+    state = StepState(len(ck.states), s, mu, T, x, measure(model, x), 0, ck.elapsed_s)
+    return model, state, releasing
+
+
+def release_metrics(folder: str | os.PathLike) -> dict | None:
+    """The state metrics (:func:`~hydrojam.actuator.model.measure`: bending angle [deg], tip [mm],
+    ...) of the current centre of the release in ``folder``'s checkpoint, from the design in its
+    design.toml (:func:`current_state`). None where there is no release under way or the
+    checkpoint does not fit the design."""
+    got = current_state(folder)
+    return None if got is None or not got[2] else got[1].metrics
 
 
 def _run_outcome(folder: Path) -> dict | None:
@@ -166,9 +183,9 @@ def _folder_status(out: Path) -> FolderStatus:
         # a rerun with fewer sweeps (`reproduce --sweep ...`) rewrites study.toml with those only
         others = sorted(f for f in (out / "points").glob("*") if f.is_dir() and f.name not in groups)
         runs += [_status(f, f.name, (), read_json_dict(f / "point.json")) for f in others]
-        return FolderStatus("study", study.name, tuple(runs), read_json_dict(out / LOCK_FILE))
+        return FolderStatus("study", study.name, tuple(runs), read_json_dict(out / FOLDER_LOCK))
     if (out / "design.toml").is_file() and any((out / n).is_file()
                                                for n in ("history.csv", CHECKPOINT, "metrics.json")):
-        return FolderStatus("run", out.name, (_status(out, "", (), _run_outcome(out)),), read_json_dict(out / LOCK_FILE))
+        return FolderStatus("run", out.name, (_status(out, "", (), _run_outcome(out)),), read_json_dict(out / FOLDER_LOCK))
     raise StatusError(f"{out}: not an output folder of hydrojam (no study.toml, and no design.toml with a run's "
                       "history.csv, checkpoint.npz or metrics.json)")

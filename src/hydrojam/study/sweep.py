@@ -75,8 +75,6 @@ METRIC_COLUMNS: dict[str, type] = {m.name: m.type for m in (*STATE_METRICS, *map
 _HEAD: dict[str, type] = {"sweep": str, "point": int, "key": str}
 _TAIL: dict[str, type] = {"wall_time_s": metric("wall_time_s").type, "status": str, "error": str, "point_dir": str}
 _FINISHED = ("ok", "not_converged")
-#: the lock file a run holds in OUT (:func:`hydrojam._io.hold_lock`): one run at a time writes a folder
-LOCK_FILE = FOLDER_LOCK
 #: the metrics whose spread over a point's replicas the table carries (``<name>_std``, ``_min``, ``_max``)
 SPREAD_METRICS: tuple[str, ...] = tuple(m.name for m in STATE_METRICS if m.type is float)
 _SPREAD: dict[str, type] = {f"{name}_{stat}": float for name in SPREAD_METRICS for stat in ("std", "min", "max")}
@@ -592,7 +590,7 @@ def run_sweep(
     point (StudyError otherwise) and only the table is written.
 
     One run at a time writes ``OUT``: it holds the lock file ``OUT/.hydrojam.lock`` while it runs
-    (:data:`LOCK_FILE`; a lock left by a killed process of this host is taken over).
+    (:data:`hydrojam._io.FOLDER_LOCK`; a lock left by a killed process of this host is taken over).
 
     Raises StudyError for a point the simulator does not support, an ``OUT`` that holds another
     study (``OUT/study.toml`` with another name; the same name resumes) or that another run is
@@ -632,7 +630,7 @@ def run_sweep(
         if scheduler is not None:  # connected only when there is something to run
             client = _connect(scheduler) if pending else _check_address(scheduler)
         try:
-            lock.enter_context(hold_lock(make_folder(out) / LOCK_FILE))
+            lock.enter_context(hold_lock(make_folder(out) / FOLDER_LOCK))
         except LockHeld as err:
             raise StudyError(str(err)) from None
         records = _finished_records(out, groups)  # again: a run that held the lock may have finished some
