@@ -919,7 +919,7 @@ def snapshot(
 def _paper_commands(out: Path, name: str) -> str | None:
     """For the folder of a paper study in progress (``reproduce``'s, by its study's name): the
     commands that write its interim report and go on with it; None for another study."""
-    from hydrojam.paper.study import study_kind
+    from hydrojam.paper.study import reproduce_command, study_kind
     from hydrojam.study.spec import StudyError, load_study
 
     kind = study_kind(name)
@@ -929,11 +929,8 @@ def _paper_commands(out: Path, name: str) -> str | None:
         replicas = load_study(out / "study.toml").replicas
     except StudyError:
         return None
-    quick, dimension = kind
-    flags = (f"{' --dimension 3' if dimension == 3 else ''}{' --quick' if quick else ''}"
-             f"{f' --replicas {replicas}' if replicas > 1 else ''}")
-    return (f"report so far: hydrojam reproduce{flags} -o {out} --report-only\n"
-            f"go on: hydrojam reproduce{flags} -o {out}")
+    command = reproduce_command(*kind, replicas)
+    return f"report so far: {command} -o {out} --report-only\ngo on: {command} -o {out}"
 
 
 def _file_system_error(err: OSError) -> str | None:

@@ -34,6 +34,11 @@ def point_status(row: dict) -> str:
     return "ok" if conv else ("not_converged" if conv is False else "failed")
 
 
+def without_result(row: dict) -> bool:
+    """True for a point with nothing to draw or compare: failed, or not finished yet."""
+    return point_status(row) in ("failed", "unfinished")
+
+
 def rows_of(table, sweep: str) -> list[dict]:
     """The rows of one sweep from a SweepTable (``select``), or from a plain list of rows."""
     if hasattr(table, "select"):

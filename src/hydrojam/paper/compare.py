@@ -18,8 +18,8 @@ from pathlib import Path
 
 from hydrojam._io import read_toml
 from hydrojam.actuator.design import Design
-from hydrojam.paper._rows import cell_pm, fmt_param, number, point_status, rows_of
-from hydrojam.paper.study import PAPER_SWEEPS, study_name
+from hydrojam.paper._rows import cell_pm, fmt_param, number, point_status, rows_of, without_result
+from hydrojam.paper.study import PAPER_SWEEPS, reproduce_command, study_name
 from hydrojam.study.sweep import SweepTable
 
 __all__ = [
@@ -53,7 +53,7 @@ def read_2d_results(path: str | os.PathLike, quick: bool) -> SweepTable:
     when the folder is missing, holds another study (a 3D one, the other kind) or has no table."""
     path = Path(path)
     want = study_name(quick, 2)
-    rerun = f"`hydrojam reproduce{' --quick' if quick else ''} -o {path}`"
+    rerun = f"`{reproduce_command(quick)} -o {path}`"
     if not path.is_dir():
         raise CompareError(f"{path}: no such folder (the 2D results: {rerun})")
     if not (path / "study.toml").is_file():
@@ -124,8 +124,7 @@ def _label(sweep, point: tuple) -> str:
 
 
 def _usable(r: dict | None) -> bool:
-    return r is not None and point_status(r) not in ("failed", "unfinished") and number(
-        r.get("bending_angle_deg")) is not None
+    return r is not None and not without_result(r) and number(r.get("bending_angle_deg")) is not None
 
 
 def _tip_up(up: str, down: str, theta: float, dz: float, length: float | None) -> str:
@@ -152,7 +151,7 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
     if r2 is None:
         return "not run in 2D"
     for r, dim in ((r2, "2D"), (r3, "3D")):
-        if point_status(r) == "failed" or (point_status(r) != "unfinished" and not _usable(r)):
+        if point_status(r) != "unfinished" and not _usable(r):
             return f"no comparison: the {dim} point failed ({r.get('error') or 'no result'})"
     for r, dim in ((r2, "2D"), (r3, "3D")):
         if point_status(r) == "unfinished":
@@ -232,12 +231,11 @@ def comparison_lines(table_3d, table_2d, base: Design, *, quick: bool, out: str 
                      source: str | os.PathLike | None = None) -> list[str]:
     """The report's section "2D against 3D" as Markdown lines: with ``table_2d`` (a 2D study's
     table, from folder ``source``) the table of :func:`compare_points`; without, how to get it."""
-    q = " --quick" if quick else ""
     L = ["## 2D against 3D (the same designs)", ""]
     if table_2d is None:
         return L + [f"*No 2D results given.* To compare, run the 2D study of the same kind "
-                    f"(`hydrojam reproduce{q} -o OUT2D`) and rerun this one with `{COMPARE_OPTION} OUT2D` "
-                    f"(`hydrojam reproduce --dimension 3{q} -o {out} {COMPARE_OPTION} OUT2D`): its finished points "
+                    f"(`{reproduce_command(quick)} -o OUT2D`) and rerun this one with `{COMPARE_OPTION} OUT2D` "
+                    f"(`{reproduce_command(quick, 3)} -o {out} {COMPARE_OPTION} OUT2D`): its finished points "
                     "are reused, only the report is rewritten.", ""]
     points = compare_points(table_3d, table_2d, base)
     L += [f"The same designs in 2D plane strain (particles are cylinders; the 2D study in `{source}`) and in 3D "
@@ -254,7 +252,7 @@ def comparison_lines(table_3d, table_2d, base: Design, *, quick: bool, out: str 
         cells = []
         for key in ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm"):
             for r in (p.row_2d, p.row_3d):
-                cells.append("—" if r is None or point_status(r) in ("failed", "unfinished") else cell_pm(r, key))
+                cells.append("—" if r is None or without_result(r) else cell_pm(r, key))
         L.append(f"| {_md(p.label)} | " + " | ".join(cells) + f" | {_md(p.change)} |")
     usable = [p for p in points if _usable(p.row_2d) and _usable(p.row_3d)]
     if usable:

@@ -20,7 +20,7 @@ from matplotlib.figure import Figure
 from hydrojam._io import atomic_path
 from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY
 from hydrojam.actuator.plots import _TRI6_SPLIT, _mid_section
-from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by
+from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, without_result
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
 
 __all__ = ["DPI", "SHAPES_MAX_COLUMNS", "figure_names", "plot_shapes", "plot_trends", "write_figures"]
@@ -171,7 +171,7 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
             else:
                 (pts, tris, body, panel["outline"], panel["section"]), panel["now"] = current
                 panel["shape"] = (pts, tris, body)
-        elif point_status(row) in ("failed", "unfinished") or not row.get("point_dir"):
+        elif without_result(row) or not row.get("point_dir"):
             panel["failed"] = _failure_text(row)
         else:
             try:
@@ -270,7 +270,7 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
         xs, ys, hollow, err, lo, hi = [], [], [], [], [], []
         for r in rows:
             p, v = number(r.get(param)), number(r.get(key))
-            if p is None or v is None or point_status(r) in ("failed", "unfinished"):
+            if p is None or v is None or without_result(r):
                 continue
             xs.append(p)
             ys.append(abs(v) if magnitude else v)

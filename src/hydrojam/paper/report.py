@@ -25,7 +25,7 @@ from hydrojam.paper.claims import (
 )
 from hydrojam.paper.compare import comparison_lines
 from hydrojam.paper.figures import figure_names
-from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, paper_base
+from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, paper_base, reproduce_command
 
 __all__ = ["MODEL_DIFFERENCES", "MODEL_DIFFERENCES_3D", "model_differences", "write_report"]
 
@@ -186,8 +186,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                 for v in ("agree", "disagree", "undetermined", SPREAD_VERDICT)}
     n_replicas = _replicated(all_rows)
 
-    flag = (f"{' --dimension 3' if dim == 3 else ''}{' --quick' if quick else ''}"
-            f"{f' --replicas {n_replicas}' if n_replicas > 1 else ''}")
+    command = reproduce_command(quick, dim, n_replicas)
     if dim == 3:
         model = (f"3D (particles are spheres; {'the half model y ≥ 0, y = 0 a symmetry plane' if base.mesh.symmetry else 'the full model'}), "
                  f"mesh size {base.mesh.size:g} mm (quadratic tetrahedra)")
@@ -197,7 +196,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
          ""]
     L += ["## What was run", ""]
     L += [f"- Study: **{'quick' if quick else 'full'}{', 3D' if dim == 3 else ''}** "
-          f"(`hydrojam reproduce{flag}`), hydrojam {__version__}.",
+          f"(`{command}`), hydrojam {__version__}.",
           f"- Base design: the default (PL {base.particle_layers}, h = {base.strain_limit_thickness:g} mm, "
           f"T = {base.stimulus.temperature:g} K, d = {base.particle_diameter:g} mm, "
           f"{'frictionless' if base.friction == 0 else f'friction {base.friction:g}'}), {model}.",
@@ -208,7 +207,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                  "(replica 0 as drawn; docs/replicas.md); the tables and figures give the mean ± standard "
                  "deviation over the replicas that converged, and a statement agrees or disagrees only beyond "
                  "the spread.")
-    rerun = f"`hydrojam reproduce{flag} -o {out}`"
+    rerun = f"`{command} -o {out}`"
     for sw in PAPER_SWEEPS:
         vals = sorted({v for v in (number(r.get(sw.field)) for r in rows_of(table, sw.name)) if v is not None})
         not_run = "" if vals else f" **Not run**: {rerun} adds it, reusing the finished points."

@@ -32,6 +32,7 @@ __all__ = [
     "paper_points",
     "paper_study",
     "paper_sweep",
+    "reproduce_command",
     "study_kind",
     "study_name",
     "sweep_of_field",
@@ -101,6 +102,13 @@ def study_name(quick: bool = False, dimension: int = 2) -> str:
     "paper-3d", "paper-3d-quick" (3D). Two kinds never share an output folder (the sweep refuses
     an OUT holding another name)."""
     return "paper" + ("-3d" if _check_dimension(dimension) == 3 else "") + ("-quick" if quick else "")
+
+
+def reproduce_command(quick: bool = False, dimension: int = 2, replicas: int = 1) -> str:
+    """The command line of the study of that kind ("hydrojam reproduce --dimension 3 --quick
+    --replicas 4"), without its output folder: what the reports and `hydrojam status` print."""
+    return (f"hydrojam reproduce{' --dimension 3' if _check_dimension(dimension) == 3 else ''}"
+            f"{' --quick' if quick else ''}{f' --replicas {replicas}' if replicas > 1 else ''}")
 
 
 def study_kind(name: str) -> tuple[bool, int] | None:
