@@ -69,6 +69,11 @@ def test_a_tip_that_rises_within_its_bends_lift_is_not_called_a_shortening():
     assert "the 3D tip rises (δz > 0): bent by 120°, an arc of the actuator's length lifts its end by 52 mm" in curled
     assert "shortens" not in curled
     assert "bent by 69°, an arc of the actuator's length lifts its end by 20 mm" in by["T = 295 K"]
+    lines = pcompare.comparison_lines(three, two, BASE_3D, quick=True, out="o", source="s")
+    rows = [line for line in lines if line.startswith("| base") or line.startswith("| T = 295")]
+    assert all("[a]; the 3D tip rises (δz > 0) within its bend's lift" in r and r.endswith("[b] |") for r in rows)
+    assert "(52 mm at 120°)" in rows[0] and "(20 mm at 69°)" in rows[1]
+    assert f"- [b] {pcompare.REASONS['lift 3D']}." in lines
 
 
 def test_comparison_lines_table_and_without_2d():
@@ -82,6 +87,12 @@ def test_comparison_lines_table_and_without_2d():
     assert cells[1:7] == ["70.0", "50.0", "-45.0", "-30.0", "-10.0", "-8.0"]
     assert table[-1].split(" | ")[1:7] == ["80.0", "—", "-50.0", "—", "-12.0", "—"]
     assert "Over the 4 points run in both, θ changes by -20.0° to +15.0° from 2D to 3D (mean -1.1°)." in text
+    # each hypothesis is said once, below the table, and the rows point to it by its letter
+    assert table[0].split(" | ")[7].startswith("bends less in 3D (θ -20.0°, -29 %; a free sphere swells 2.16x")
+    assert table[0].endswith("[a] |") and "bends more in 3D (θ +15.0°) [b]" in table[3]
+    why = lines[lines.index("Why (hypotheses):") + 1:]
+    assert why[0] == f"- [a] {pcompare.REASONS['less']}." and why[1] == f"- [b] {pcompare.REASONS['more']}."
+    assert all(text.count(reason) == 1 for reason in (pcompare.REASONS["less"], pcompare.REASONS["more"]))
     # replicated rows give mean ± standard deviation
     three.rows[0]["bending_angle_deg_std"] = 2.5
     assert "50.0 ± 2.5" in "\n".join(pcompare.comparison_lines(three, two, BASE_3D, quick=True, out="o", source="s"))

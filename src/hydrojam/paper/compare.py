@@ -25,7 +25,9 @@ from hydrojam.study.sweep import SweepTable
 __all__ = [
     "COMPARE_OPTION",
     "CompareError",
+    "Change",
     "PointComparison",
+    "REASONS",
     "SAME_ANGLE_TOL",
     "compare_points",
     "comparison_lines",
@@ -83,9 +85,21 @@ def free_swelling_stretches(base: Design, temperature: float) -> tuple[float, fl
 
 
 @dataclass(frozen=True)
+class Change:
+    """One part of what changes from 2D to 3D at a point: ``short``, what the numbers show (for
+    the table's cell); ``reason``, the key of its hypothesis in :data:`REASONS` (None: none);
+    ``text``, the two in one sentence."""
+
+    short: str
+    reason: str | None
+    text: str
+
+
+@dataclass(frozen=True)
 class PointComparison:
     """One design in both models: its label, the rows of the 2D and the 3D table (None: not
-    run), the free-swelling stretches (cylinder, sphere) at its temperature, and the change in words."""
+    run), the free-swelling stretches (cylinder, sphere) at its temperature, the change in words
+    (``change``, whole sentences) and its parts (``parts``: what shows, and the reason's key)."""
 
     label: str
     temperature: float | None
@@ -93,6 +107,7 @@ class PointComparison:
     row_3d: dict | None
     stretches: tuple[float, float] | None
     change: str
+    parts: tuple[Change, ...] = ()
 
 
 def _field(design: Design, path: str):
@@ -127,7 +142,23 @@ def _usable(r: dict | None) -> bool:
     return r is not None and not without_result(r) and number(r.get("bending_angle_deg")) is not None
 
 
-def _tip_up(up: str, down: str, theta: float, dz: float, length: float | None) -> str:
+#: the hypotheses behind the parts of a change (:class:`Change`), each said once below the table
+REASONS = {
+    "more": "the spheres, held across y by the chamber's depth and the membrane's hoop stretch, stay a column "
+            "and push along its axis, where the cylinders (no out-of-plane stretch to resist them) balloon the "
+            "membrane and pack into a cluster",
+    "less": "less swelling to push with (a sphere's volume change goes into three directions, a plane-strain "
+            "cylinder's into two), and the membrane's hoop stretch round each sphere resists it",
+    "lift 3D": "an actuator of length L bent into a circular arc through θ lifts its free end by "
+               "L (1 − sin θ/θ): the 3D tip rises within that lift, so the bend outruns the 3D chamber's "
+               "lengthening, where the 2D chamber lengthens more than its bend lifts it",
+    "lift 2D": "an actuator of length L bent into a circular arc through θ lifts its free end by "
+               "L (1 − sin θ/θ): the 2D tip rises within that lift, so the bend outruns the 2D chamber's "
+               "lengthening, where the 3D chamber lengthens more than its bend lifts it",
+}
+
+
+def _tip_up(up: str, down: str, theta: float, dz: float, length: float | None) -> Change:
     """Why the ``up`` model's tip rises (δz [mm] > 0) where the ``down`` one's falls. Bending
     alone lifts the free end of an actuator of length L [mm] bent by θ [deg] into a circular arc
     by L (1 - sin θ / θ); a rise within that lift is the bend outrunning the chamber's
@@ -136,28 +167,35 @@ def _tip_up(up: str, down: str, theta: float, dz: float, length: float | None) -
         rad = math.radians(abs(theta))
         lift = length * (1.0 - math.sin(rad) / rad)
         if dz <= lift:
-            return (f"the {up} tip rises (δz > 0): bent by {abs(theta):.0f}°, an arc of the actuator's length "
-                    f"lifts its end by {lift:.0f} mm, more than the {up} chamber lengthens, where the {down} "
-                    "chamber lengthens more than its bend lifts it")
-    return f"the {up} chamber shortens (tip up) where the {down} one bends down"
+            return Change(f"the {up} tip rises (δz > 0) within its bend's lift ({lift:.0f} mm at {abs(theta):.0f}°)",
+                          f"lift {up}",
+                          f"the {up} tip rises (δz > 0): bent by {abs(theta):.0f}°, an arc of the actuator's length "
+                          f"lifts its end by {lift:.0f} mm, more than the {up} chamber lengthens, where the {down} "
+                          "chamber lengthens more than its bend lifts it")
+    text = f"the {up} chamber shortens (tip up) where the {down} one bends down"
+    return Change(text, None, text)
+
+
+def _plain(text: str) -> tuple[Change, ...]:
+    return (Change(text, None, text),)
 
 
 def _change(r2: dict | None, r3: dict | None, temperature: float | None,
-            stretches: tuple[float, float] | None, length: float | None = None) -> str:
-    """What changes from 2D to 3D at one point and why (a hypothesis), in words; ``length``: the
-    point's actuator length L [mm] (None: unknown)."""
+            stretches: tuple[float, float] | None, length: float | None = None) -> tuple[Change, ...]:
+    """What changes from 2D to 3D at one point and why (a hypothesis), as its parts; ``length``:
+    the point's actuator length L [mm] (None: unknown)."""
     if r3 is None:
-        return "not run in 3D"
+        return _plain("not run in 3D")
     if r2 is None:
-        return "not run in 2D"
+        return _plain("not run in 2D")
     for r, dim in ((r2, "2D"), (r3, "3D")):
         if point_status(r) != "unfinished" and not _usable(r):
-            return f"no comparison: the {dim} point failed ({r.get('error') or 'no result'})"
+            return _plain(f"no comparison: the {dim} point failed ({r.get('error') or 'no result'})")
     for r, dim in ((r2, "2D"), (r3, "3D")):
         if point_status(r) == "unfinished":
             err = str(r.get("error") or "")
             where = err if err.startswith(("not finished", "not started")) else f"not finished ({err or '?'})"
-            return f"no comparison yet: the {dim} point is {where}"
+            return _plain(f"no comparison yet: the {dim} point is {where}")
     t2, t3 = number(r2["bending_angle_deg"]), number(r3["bending_angle_deg"])
     swell = ("" if stretches is None else
              f"a free sphere swells {stretches[1]:.2f}x in diameter at {temperature:g} K, a plane-strain "
@@ -165,30 +203,33 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
     scale = max(abs(t2), abs(t3))
     if scale < STRAIGHT_DEG:
         text = "both nearly straight" + (f": the gel barely swells ({swell})" if swell else "")
+        parts = [Change(text, None, text)]
     else:
         d = t3 - t2
         if abs(d) <= SAME_ANGLE_TOL * scale:
             text = f"bends about as much in 3D (θ {d:+.1f}°)"
-            if swell:
-                text += f"; the spheres' smaller swelling ({swell}) shows little here"
+            full = text + (f"; the spheres' smaller swelling ({swell}) shows little here" if swell else "")
+            parts = [Change(text, None, full)]
         elif abs(t3) < abs(t2):
-            text = f"bends less in 3D (θ {d:+.1f}°, {100 * d / abs(t2):+.0f} %): less swelling to push with"
-            text += f" ({swell})" if swell else ""
-            text += ", and the membrane's hoop stretch round each sphere resists it"
+            short = f"bends less in 3D (θ {d:+.1f}°, {100 * d / abs(t2):+.0f} %" + (f"; {swell})" if swell else ")")
+            full = (f"bends less in 3D (θ {d:+.1f}°, {100 * d / abs(t2):+.0f} %): less swelling to push with"
+                    + (f" ({swell})" if swell else "") + ", and the membrane's hoop stretch round each sphere resists it")
+            parts = [Change(short, "less", full)]
         else:
-            text = (f"bends more in 3D (θ {d:+.1f}°): the spheres, held across y by the chamber's depth and the "
-                    "membrane's hoop stretch, stay a column and push along its axis, where the cylinders (no "
-                    "out-of-plane stretch to resist them) balloon the membrane and pack into a cluster")
+            short = f"bends more in 3D (θ {d:+.1f}°)"
+            parts = [Change(short, "more", f"{short}: {REASONS['more']}")]
     z2, z3 = number(r2.get("tip_dz_mm")), number(r3.get("tip_dz_mm"))
     if z2 is not None and z3 is not None and scale >= STRAIGHT_DEG:
         if z2 > 0 > z3:
-            text += "; " + _tip_up("2D", "3D", t2, z2, length)
+            parts.append(_tip_up("2D", "3D", t2, z2, length))
         elif z3 > 0 > z2:
-            text += "; " + _tip_up("3D", "2D", t3, z3, length)
+            parts.append(_tip_up("3D", "2D", t3, z3, length))
     late = [dim for r, dim in ((r2, "2D"), (r3, "3D")) if point_status(r) == "not_converged"]
     if late:
-        text += f" ({' and '.join(late)} not converged: an intermediate state)"
-    return text
+        note = f" ({' and '.join(late)} not converged: an intermediate state)"
+        last = parts[-1]
+        parts[-1] = Change(last.short + note, last.reason, last.text + note)
+    return tuple(parts)
 
 
 def compare_points(table_3d, table_2d, base: Design) -> list[PointComparison]:
@@ -219,7 +260,8 @@ def compare_points(table_3d, table_2d, base: Design) -> list[PointComparison]:
                 except (ValueError, ArithmeticError):  # no equilibrium: the text does without
                     stretch_at[T] = None
             st = stretch_at.get(T)
-            out.append(PointComparison(_label(sw, point), T, r2, r3, st, _change(r2, r3, T, st, _length(base, point))))
+            parts = _change(r2, r3, T, st, _length(base, point))
+            out.append(PointComparison(_label(sw, point), T, r2, r3, st, "; ".join(c.text for c in parts), parts))
     return out
 
 
@@ -246,14 +288,20 @@ def comparison_lines(table_3d, table_2d, base: Design, *, quick: bool, out: str 
           "in a chamber as deep as one particle stay in a column where cylinders can pack into a cluster. "
           "The \"why\" is a hypothesis from these differences, not a finding.", "",
           "| point | θ 2D [deg] | θ 3D [deg] | δx 2D [mm] | δx 3D [mm] | δz 2D [mm] | δz 3D [mm] | "
-          "what changes and why |",
+          "what changes (why: [a], [b], ... below) |",
           "|:---|---:|---:|---:|---:|---:|---:|:---|"]
+    mark: dict[str, str] = {}  # reason key -> its letter, in order of first use
     for p in points:
         cells = []
         for key in ("bending_angle_deg", "tip_dx_mm", "tip_dz_mm"):
             for r in (p.row_2d, p.row_3d):
                 cells.append("—" if r is None or without_result(r) else cell_pm(r, key))
-        L.append(f"| {_md(p.label)} | " + " | ".join(cells) + f" | {_md(p.change)} |")
+        said = []
+        for c in p.parts or (Change(p.change, None, p.change),):
+            if c.reason is not None:
+                mark.setdefault(c.reason, "abcdefghijklmnopqrstuvwxyz"[len(mark)])
+            said.append(c.short + ("" if c.reason is None else f" [{mark[c.reason]}]"))
+        L.append(f"| {_md(p.label)} | " + " | ".join(cells) + f" | {_md('; '.join(said))} |")
     usable = [p for p in points if _usable(p.row_2d) and _usable(p.row_3d)]
     if usable:
         d = [number(p.row_3d["bending_angle_deg"]) - number(p.row_2d["bending_angle_deg"]) for p in usable]
@@ -262,4 +310,6 @@ def comparison_lines(table_3d, table_2d, base: Design, *, quick: bool, out: str 
         else:
             L += ["", f"Over the {len(usable)} points run in both, θ changes by {min(d):+.1f}° to {max(d):+.1f}° "
                       f"from 2D to 3D (mean {sum(d) / len(d):+.1f}°)."]
+    if mark:
+        L += ["", "Why (hypotheses):"] + [f"- [{letter}] {REASONS[key]}." for key, letter in mark.items()]
     return L + [""]
