@@ -212,6 +212,7 @@ def test_reproduce_report_only_writes_an_interim_report(tmp_path, monkeypatch, c
     key = {(p.sweep, p.index): p.key for p in study.points()}
     pl15, h12 = key[("particle_layers", 4)], key[("strain_limit_thickness", 2)]
     _cache_points(tmp_path, study)
+    h12_record = (tmp_path / "points" / h12 / "point.json").read_bytes()
     for k in (pl15, h12):
         (tmp_path / "points" / k / "point.json").unlink()
     (tmp_path / "points" / pl15 / "history.csv").write_text(
@@ -231,6 +232,13 @@ def test_reproduce_report_only_writes_an_interim_report(tmp_path, monkeypatch, c
     assert {c.verdict for cid, c in verdicts.items() if cid.startswith("PL-")} == {"undetermined"}
     assert verdicts["PL-dx"].summary.startswith("not final, PL 15 not finished; the finished points alone read agree")
     assert {verdicts[c].verdict for c in ("T-angle", "T-displacement", "T-linear", "T-dx-dominant")} == {"agree"}
+    # one point left: said in the singular
+    (tmp_path / "points" / h12 / "point.json").write_bytes(h12_record)
+    assert main(["reproduce", "--quick", "-o", str(tmp_path), "--report-only"]) == 0
+    text = (tmp_path / "report.md").read_text(encoding="utf-8")
+    assert ("**An interim report**: 1 of the 10 points is not finished (its row says where it stands); every "
+            "statement of its sweeps is undetermined until it finishes.") in text
+    assert "runs it on from its checkpoint and rewrites this report" in text
 
 
 @pytest.mark.parametrize("args, says, made", [

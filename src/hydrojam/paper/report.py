@@ -228,9 +228,14 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
           f"{verdicts['undetermined']} undetermined"
           + (f", {verdicts[SPREAD_VERDICT]} {SPREAD_VERDICT}." if n_replicas > 1 else "."), ""]
     if counts["unfinished"]:
-        L += [f"**An interim report**: {counts['unfinished']} of the {n_points} points are not finished (their "
-              "rows say where each stands); every statement of their sweeps is undetermined until they finish. "
-              f"{rerun} runs them on from their checkpoints and rewrites this report.", ""]
+        one = counts["unfinished"] == 1
+        L += [f"**An interim report**: {counts['unfinished']} of the {n_points} points "
+              + ("is not finished (its row says where it stands); every statement of its sweeps is undetermined "
+                 "until it finishes. " if one else
+                 "are not finished (their rows say where each stands); every statement of their sweeps is "
+                 "undetermined until they finish. ")
+              + f"{rerun} runs {'it' if one else 'them'} on from {'its checkpoint' if one else 'their checkpoints'} "
+              "and rewrites this report.", ""]
     for sw in PAPER_SWEEPS:
         rows = rows_of(table, sw.name)
         L += [f"## {sw.label[0].upper() + sw.label[1:]} (paper {sw.figures})", ""]
