@@ -89,9 +89,9 @@ def mirrored_half(model: ActuatorModel, x: np.ndarray, fields: dict[str, np.ndar
     return points, cells, disp, out
 
 
-def write_vtu(path: Path, model: ActuatorModel, state: StepState) -> None:
-    """One state as a VTU file (atomic): reference points, displacement and the cell fields (a 3D
-    half model mirrored about y = 0: :func:`mirrored_half`)."""
+def vtu_mesh(model: ActuatorModel, state: StepState) -> meshio.Mesh:
+    """One state as the mesh a VTU file holds (:func:`write_vtu`): reference points, displacement
+    and the cell fields (a 3D half model mirrored about y = 0: :func:`mirrored_half`)."""
     fields = cell_fields(model, state.x, state.s)
     X, cells = model.mesh.points, model.mesh.cells
     if model.mesh.dim == 2:
@@ -100,13 +100,17 @@ def write_vtu(path: Path, model: ActuatorModel, state: StepState) -> None:
         X, cells, u, fields = mirrored_half(model, state.x, fields)
     else:
         u = state.x - X
-    mesh = meshio.Mesh(
+    return meshio.Mesh(
         X, [(model.mesh.cell_type, cells)],
         point_data={"displacement": u},
         cell_data={k: [v.reshape(len(v), -1) if v.ndim == 3 else v] for k, v in fields.items()},
     )
+
+
+def write_vtu(path: Path, model: ActuatorModel, state: StepState) -> None:
+    """One state as a VTU file (atomic): :func:`vtu_mesh`."""
     with atomic_path(path) as tmp:
-        meshio.write(tmp, mesh, file_format="vtu")
+        meshio.write(tmp, vtu_mesh(model, state), file_format="vtu")
 
 
 def pvd_text(entries: list[tuple[float, str]]) -> str:
@@ -252,4 +256,4 @@ class ResultWriter:
         return metrics
 
 
-__all__ = ["ResultWriter", "write_vtu", "mirrored_half", "pvd_text", "history_row", "ordered_metrics", "HISTORY_COLUMNS"]
+__all__ = ["ResultWriter", "vtu_mesh", "write_vtu", "mirrored_half", "pvd_text", "history_row", "ordered_metrics", "HISTORY_COLUMNS"]

@@ -38,29 +38,34 @@ def _sweep_for(param: str, label: str | None = None, unit: str | None = None) ->
 
 
 def _read_drawing(point_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, bool]:
+    """The drawing (:func:`_drawing`) of the point's ``final.vtu``."""
+    import meshio
+
+    return _drawing(meshio.read(point_dir / "final.vtu"))
+
+
+def _drawing(mesh, source: str = "final.vtu") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, bool]:
     """Deformed positions (n, 2), triangles (k, 3), their body ids and the undeformed outer outline
-    (a closed rectangle (5, 2), or None) from ``final.vtu``, all in (x, z) [mm].
+    (a closed rectangle (5, 2), or None) from a VTU file's mesh (meshio; ``source`` names it in
+    errors), all in (x, z) [mm].
 
     :func:`hydrojam.actuator.results.write_vtu` writes the reference points and a ``displacement`` field:
     the deformed points are their sum and the outline is the reference points' bounding box
     (the actuator is a rectangle, DESIGN.md section 6). Without a displacement field the points
     are taken as deformed and no outline is drawn. A 3D actuator (quadratic tetrahedra, the half
     model mirrored) is drawn as its section y = 0 (:func:`_section_y0`); the last item says so."""
-    import meshio
-
-    mesh = meshio.read(point_dir / "final.vtu")
     body_data = mesh.cell_data.get("body_id")
     tets = [i for i, block in enumerate(mesh.cells) if block.type == "tetra10"]
     pts3 = np.asarray(mesh.points, dtype=float)
     disp = mesh.point_data.get("displacement")
     if tets:
         if body_data is None:
-            raise ValueError("no body_id in final.vtu")
+            raise ValueError(f"no body_id in {source}")
         cells = np.concatenate([np.asarray(mesh.cells[i].data) for i in tets])
         body = np.concatenate([np.asarray(body_data[i]).reshape(-1) for i in tets])
         tris, bodies = _section_y0(pts3, cells, body)
         if not len(tris):
-            raise ValueError("no cell faces on the plane y = 0 in final.vtu")
+            raise ValueError(f"no cell faces on the plane y = 0 in {source}")
     pts = pts3[:, [0, 2]]
     outline = None
     if disp is not None:
@@ -83,7 +88,7 @@ def _read_drawing(point_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
             tris.append(cells)
             bodies.append(body)
     if not tris:
-        raise ValueError("no triangles in final.vtu")
+        raise ValueError(f"no triangles in {source}")
     return pts, np.concatenate(tris), np.concatenate(bodies), outline, False
 
 
@@ -109,21 +114,17 @@ def _body_outlines(tris: np.ndarray, body: np.ndarray) -> np.ndarray:
 
 
 def _current_drawing(point_dir: Path):
-    """(drawing as :func:`_read_drawing` returns it, title line) of the unfinished run in
+    """(drawing as :func:`_drawing` returns it, title line) of the unfinished run in
     ``point_dir`` as it stands now (:func:`hydrojam.study.status.current_state`: its checkpoint
     on the model of its design.toml, not an equilibrium), or None where it has no checkpoint."""
-    import tempfile
-
-    from hydrojam.actuator.results import write_vtu
+    from hydrojam.actuator.results import vtu_mesh
     from hydrojam.study.status import current_state
 
     got = current_state(point_dir)
     if got is None:
         return None
     model, state, releasing = got
-    with tempfile.TemporaryDirectory() as tmp:
-        write_vtu(Path(tmp) / "final.vtu", model, state)
-        drawing = _read_drawing(Path(tmp))
+    drawing = _drawing(vtu_mesh(model, state), "its checkpoint's state")
     where = "releasing" if releasing else f"s = {state.s:.2f}"
     return drawing, f"not finished: {where}, θ now {state.metrics['bending_angle_deg']:.1f}°"
 
