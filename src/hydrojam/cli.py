@@ -876,7 +876,7 @@ def status(
                       f"{st.lock.get('started')} (its lock file; a killed run's is taken over by the next)",
                       soft_wrap=True, highlight=False, markup=False)
     if st.kind == "study" and ({"unfinished", "not started"} & set(st.counts())):
-        hint = _paper_commands(out, st.name)
+        hint = _paper_commands(out, st.name, st.replicas)
         if hint:
             console.print(hint, soft_wrap=True, highlight=False, markup=False)
 
@@ -916,18 +916,14 @@ def snapshot(
                       f"{m['tip_dz_mm']:.1f}) mm: {shot.vtu}, {shot.png}", soft_wrap=True, highlight=False)
 
 
-def _paper_commands(out: Path, name: str) -> str | None:
-    """For the folder of a paper study in progress (``reproduce``'s, by its study's name): the
-    commands that write its interim report and go on with it; None for another study."""
+def _paper_commands(out: Path, name: str, replicas: int) -> str | None:
+    """For the folder of a paper study in progress (``reproduce``'s, by its study's name, with
+    ``replicas`` per point): the commands that write its interim report and go on with it; None
+    for another study."""
     from hydrojam.paper.study import reproduce_command, study_kind
-    from hydrojam.study.spec import StudyError, load_study
 
     kind = study_kind(name)
     if kind is None:
-        return None
-    try:
-        replicas = load_study(out / "study.toml").replicas
-    except StudyError:
         return None
     command = reproduce_command(*kind, replicas)
     return f"report so far: {command} -o {out} --report-only\ngo on: {command} -o {out}"

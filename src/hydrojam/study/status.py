@@ -61,12 +61,14 @@ class RunStatus:
 class FolderStatus:
     """``kind``: "study" or "run"; ``name``: the study's name, or the run folder's; ``runs``: in
     the study's order; ``lock``: the folder's lock file as written by the run that holds it
-    (pid, host, started; :data:`hydrojam._io.FOLDER_LOCK`), None when no run holds it."""
+    (pid, host, started; :data:`hydrojam._io.FOLDER_LOCK`), None when no run holds it;
+    ``replicas``: the study's replicas per point (1 for a run)."""
 
     kind: str
     name: str
     runs: tuple[RunStatus, ...]
     lock: dict | None = None
+    replicas: int = 1
 
     def counts(self) -> dict[str, int]:
         """How many runs are in each state (:data:`STATES`), the empty ones left out."""
@@ -183,7 +185,7 @@ def _folder_status(out: Path) -> FolderStatus:
         # a rerun with fewer sweeps (`reproduce --sweep ...`) rewrites study.toml with those only
         others = sorted(f for f in (out / "points").glob("*") if f.is_dir() and f.name not in groups)
         runs += [_status(f, f.name, (), read_json_dict(f / "point.json")) for f in others]
-        return FolderStatus("study", study.name, tuple(runs), read_json_dict(out / FOLDER_LOCK))
+        return FolderStatus("study", study.name, tuple(runs), read_json_dict(out / FOLDER_LOCK), study.replicas)
     if (out / "design.toml").is_file() and any((out / n).is_file()
                                                for n in ("history.csv", CHECKPOINT, "metrics.json")):
         return FolderStatus("run", out.name, (_status(out, "", (), _run_outcome(out)),), read_json_dict(out / FOLDER_LOCK))
