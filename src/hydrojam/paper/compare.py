@@ -149,12 +149,10 @@ REASONS = {
             "membrane and pack into a cluster",
     "less": "less swelling to push with (a sphere's volume change goes into three directions, a plane-strain "
             "cylinder's into two), and the membrane's hoop stretch round each sphere resists it",
-    "lift 3D": "an actuator of length L bent into a circular arc through θ lifts its free end by "
-               "L (1 − sin θ/θ): the 3D tip rises within that lift, so the bend outruns the 3D chamber's "
-               "lengthening, where the 2D chamber lengthens more than its bend lifts it",
-    "lift 2D": "an actuator of length L bent into a circular arc through θ lifts its free end by "
-               "L (1 − sin θ/θ): the 2D tip rises within that lift, so the bend outruns the 2D chamber's "
-               "lengthening, where the 3D chamber lengthens more than its bend lifts it",
+    **{f"lift {up}": "an actuator of length L bent into a circular arc through θ lifts its free end by "
+                     f"L (1 − sin θ/θ): the {up} tip rises within that lift, so the bend outruns the {up} "
+                     f"chamber's lengthening, where the {down} chamber lengthens more than its bend lifts it"
+       for up, down in (("3D", "2D"), ("2D", "3D"))},
 }
 
 
