@@ -37,14 +37,18 @@ def _sweep_for(param: str, label: str | None = None, unit: str | None = None) ->
     return symbol, label or (sw.label if sw else param), unit if unit is not None else (sw.unit if sw else "")
 
 
-def _read_drawing(point_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, bool]:
+#: (deformed points (n, 2), triangles (k, 3), their body ids, undeformed outline or None, is a 3D section y = 0)
+_Drawing = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, bool]
+
+
+def _read_drawing(point_dir: Path) -> _Drawing:
     """The drawing (:func:`_drawing`) of the point's ``final.vtu``."""
     import meshio
 
     return _drawing(meshio.read(point_dir / "final.vtu"))
 
 
-def _drawing(mesh, source: str = "final.vtu") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, bool]:
+def _drawing(mesh, source: str = "final.vtu") -> _Drawing:
     """Deformed positions (n, 2), triangles (k, 3), their body ids and the undeformed outer outline
     (a closed rectangle (5, 2), or None) from a VTU file's mesh (meshio; ``source`` names it in
     errors), all in (x, z) [mm].
