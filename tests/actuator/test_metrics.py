@@ -24,6 +24,7 @@ import pytest
 from hydrojam.actuator.metrics import (
     CentrelineProfile,
     bending_angle_deg,
+    centreline_points,
     centreline_profile,
     contacts_per_particle,
     curling_index,
@@ -390,3 +391,55 @@ def test_measure_and_run_metrics_have_exactly_the_registry_keys():
     for m in (*STATE_METRICS, *RUN_FIELDS):
         value = result.metrics[m.name]
         assert value is None or isinstance(value, m.type) or (m.type is float and type(value) is int), m.name
+
+
+@pytest.mark.parametrize("R, p_end", [(40.0, 0.5), (-25.0, 1.2), (12.0, 4.0)])
+def test_centreline_points_rebuild_a_circular_arc_exactly(R, p_end):
+    """An arc of signed radius R from the clamp at (x0, 0), curled past 180 degrees in one case,
+    on even nodes (on uneven ones the profile's own arc length is exact only to second order, its
+    first pass spacing the nodes by chords): its profile's arc length and rotation give its nodes
+    back. Each segment is
+    taken as an arc, so only round-off remains: some 100 operations on coordinates up to 50 mm,
+    about 1e-12 mm; the bound 1e-9 of the arc's length is far above that and far below a real
+    error (the chord without its sin(d/2)/(d/2) factor is off by about a length x d^2 / 24, 1e-3 of
+    it here)."""
+    x0 = -12.0
+    S = np.linspace(0.0, abs(R) * p_end, 23)  # reference arc length
+    p = S / R
+    arc = np.column_stack((x0 - R + R * np.cos(p), -R * np.sin(p)))
+    ref = np.column_stack((np.full_like(p, x0), -S))
+    prof = centreline_profile(ref, arc)
+    got = centreline_points(prof.arc_length, prof.rotation, start=(x0, 0.0))
+    assert np.abs(got - arc).max() <= 1e-9 * abs(R * p_end)
+    assert got[0] == pytest.approx((x0, 0.0), abs=0.0)
+
+
+def test_centreline_points_converge_at_second_order_on_a_varying_curvature():
+    """A line whose rotation is a s + b s^2 / 2 + c sin(s / 15) (curvature varying and changing
+    sign), its nodes integrated to 1e-13 by quadrature: the round trip through centreline_profile
+    and centreline_points is second order, the error falling about 4x (measured 4.2, 4.0) each time
+    the spacing halves, and under 0.1 % of the length at 4 mm spacing (measured 0.055 mm of 100)."""
+    from scipy.integrate import quad
+
+    length = 100.0
+
+    def rotation(s):
+        return 0.01 * s + 1e-4 * s * s + 0.3 * np.sin(s / 15.0)
+
+    def node(s):
+        return [quad(lambda t: f(rotation(t)), 0.0, s, epsabs=1e-13, epsrel=1e-13)[0]
+                for f in (lambda r: -np.sin(r), lambda r: -np.cos(r))]
+
+    errors = []
+    for m in (26, 51, 101):
+        S = np.linspace(0.0, length, m)
+        x = np.array([node(s) for s in S])
+        prof = centreline_profile(np.column_stack((np.zeros(m), -S)), x)
+        errors.append(np.abs(centreline_points(prof.arc_length, prof.rotation) - x).max())
+    assert errors[0] < 1e-3 * length
+    assert errors[0] / errors[1] > 3.0 and errors[1] / errors[2] > 3.0
+
+
+def test_centreline_points_refuse_mismatched_columns():
+    with pytest.raises(ValueError, match="one length"):
+        centreline_points([0.0, 1.0], [0.0])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import meshio
 import numpy as np
+import pytest
 from paper_synthetic import CORNERS, PNG_MAGIC, tri6
 
 from hydrojam.paper import figures as pfigures
@@ -68,3 +69,41 @@ def test_a_3d_point_is_drawn_as_its_section_y0(tmp_path):
     np.testing.assert_allclose(outline.min(axis=0), [-18.0, -40.0])
     pfigures.plot_shapes(tmp_path, [r], "stimulus.temperature", tmp_path / "shapes.png")
     assert (tmp_path / "shapes.png").read_bytes()[:8] == PNG_MAGIC
+
+
+def test_a_kept_record_without_final_vtu_is_drawn_as_its_mid_line(tmp_path):
+    """A finished point put back from its kept record (design.toml, centreline.csv, no final.vtu):
+    its panel is the strain-limit layer's mid-line rebuilt from centreline.csv, starting at the
+    clamp on the design's mid-line. The csv is written here the way results.py writes it, from the
+    profile of an arc of radius 50 mm turned by 1.2 rad; the rebuilt nodes are the arc's to 1e-9 of
+    its length (the rebuilding is exact on arcs; the csv's repr of floats keeps every bit)."""
+    import csv
+
+    from paper_synthetic import row
+
+    from hydrojam.actuator.design import default_design, write_design
+    from hydrojam.actuator.metrics import centreline_profile
+    from hydrojam.actuator.model import centreline_x
+
+    r = row("temperature", "stimulus.temperature", 275.0, 68.8, -40.0, -10.0, point_dir="points/kept")
+    pdir = tmp_path / "points/kept"
+    pdir.mkdir(parents=True)
+    design = default_design()
+    write_design(pdir / "design.toml", design)
+    x0, R = centreline_x(design), 50.0
+    S = np.linspace(0.0, 60.0, 31)
+    arc = np.column_stack((x0 - R + R * np.cos(S / R), -R * np.sin(S / R)))
+    prof = centreline_profile(np.column_stack((np.full_like(S, x0), -S)), arc)
+    with open(pdir / "centreline.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["reference_arc_length_mm", "arc_length_mm", "rotation_deg", "curvature_per_mm"])
+        w.writerows(zip(prof.reference_arc_length, prof.arc_length, np.degrees(prof.rotation), prof.curvature))
+    line, made = pfigures._centreline_drawing(pdir)
+    assert np.abs(line - arc).max() <= 1e-9 * 60.0
+    np.testing.assert_allclose(made, [[x0, 0.0], [x0, -60.0]], atol=1e-12)
+    pfigures.plot_shapes(tmp_path, [r], "stimulus.temperature", tmp_path / "shapes.png")
+    assert (tmp_path / "shapes.png").read_bytes()[:8] == PNG_MAGIC
+    (pdir / "centreline.csv").unlink()  # neither file: the panel says why, and the figure is still written
+    pfigures.plot_shapes(tmp_path, [r], "stimulus.temperature", tmp_path / "shapes.png")
+    with pytest.raises(OSError):
+        pfigures._centreline_drawing(pdir)

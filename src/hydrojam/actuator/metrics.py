@@ -412,6 +412,26 @@ def centreline_profile(X_line, x_line) -> CentrelineProfile:
     return CentrelineProfile(reference_arc_length=S, arc_length=s, rotation=rotation, curvature=curvature)
 
 
+def centreline_points(arc_length, rotation, start=(0.0, 0.0)) -> np.ndarray:
+    """Node positions (m, 2) [mm], (x, z), of a centreline whose reference runs straight along -z
+    (from the clamp toward the free end) and starts at ``start`` [mm], from its current arc length
+    [mm] and rotation [rad] at the nodes (a :class:`CentrelineProfile`'s, as centreline.csv holds
+    them): the inverse of :func:`centreline_profile` for such a line, the first node at ``start``.
+
+    Each segment is taken as a circular arc, its rotation linear in arc length: its chord points
+    along the tangent at the mean rotation and is sin(d/2) / (d/2) of the arc for a turning d. A
+    circular arc comes back exactly; elsewhere the error is second order in the spacing.
+    """
+    s = np.asarray(arc_length, dtype=float).reshape(-1)
+    rot = np.asarray(rotation, dtype=float).reshape(-1)
+    if s.size != rot.size or s.size < 1:
+        raise ValueError(f"arc_length and rotation must be non-empty and of one length, got {s.size} and {rot.size}")
+    mean, turning = 0.5 * (rot[:-1] + rot[1:]), np.diff(rot)
+    chord = np.diff(s) * np.sinc(turning / (2.0 * np.pi))
+    steps = np.column_stack((-np.sin(mean), -np.cos(mean))) * chord[:, None]  # clockwise from -z
+    return np.asarray(start, dtype=float) + np.vstack((np.zeros(2), np.cumsum(steps, axis=0)))
+
+
 def curling_index(profile: CentrelineProfile) -> float | None:
     """Share of the total rotation accumulated in the half of the centreline nearest the clamp.
 

@@ -146,8 +146,15 @@ class ActuatorModel:
         return LocalVolumeTerm(self.mesh.points, cells, el, KineticVolumes(self.path, modulus))
 
 
+def centreline_x(design: Design) -> float:
+    """x [mm] of the strain-limit layer's mid-line (mid-surface in 3D), the centreline of the
+    metrics; it runs from the clamp at z = 0 to the free end at z = -length."""
+    design = design.resolved()
+    return -design.resolved_cavity_width / 2 - design.side_wall_thickness - design.strain_limit_thickness / 2
+
+
 def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
-    x_mid = -design.resolved_cavity_width / 2 - design.side_wall_thickness - design.strain_limit_thickness / 2
+    x_mid = centreline_x(design)
     nodes = np.unique(mesh.cells[mesh.cell_groups["strain_limit_layer"]])
     tol = 1e-6 * design.length
     on = nodes[np.abs(mesh.points[nodes, 0] - x_mid) < tol]

@@ -18,7 +18,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from hydrojam._io import atomic_path
-from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY
+from hydrojam.actuator.metrics import centreline_points
+from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY, centreline_x
 from hydrojam.actuator.plots import _TRI6_SPLIT, _mid_section
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, without_result
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
@@ -117,6 +118,26 @@ def _body_outlines(tris: np.ndarray, body: np.ndarray) -> np.ndarray:
     return uniq[counts == 1, 1:]
 
 
+def _centreline_drawing(point_dir: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The strain-limit layer's mid-line of a finished point whose final.vtu is not kept (a record
+    put back into a study folder): (deformed (m, 2), as made (2, 2)) in (x, z) [mm], rebuilt
+    from its centreline.csv (arc length and rotation at the nodes) by
+    :func:`hydrojam.actuator.metrics.centreline_points`, starting at the clamp, (x of the mid-line
+    from its design.toml, 0). ValueError or OSError where either file is missing or unreadable."""
+    import csv
+
+    from hydrojam.actuator.design import load_design
+
+    x0 = centreline_x(load_design(point_dir / "design.toml"))
+    with open(point_dir / "centreline.csv", newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    if len(rows) < 2:
+        raise ValueError(f"{point_dir / 'centreline.csv'}: fewer than 2 rows")
+    column = lambda name: np.array([float(r[name]) for r in rows])  # noqa: E731
+    line = centreline_points(column("arc_length_mm"), np.radians(column("rotation_deg")), start=(x0, 0.0))
+    return line, np.array([[x0, 0.0], [x0, -column("reference_arc_length_mm")[-1]]])
+
+
 def _current_drawing(point_dir: Path):
     """(drawing as :func:`_drawing` returns it, title line) of the unfinished run in
     ``point_dir`` as it stands now (:func:`hydrojam.study.status.current_state`: its checkpoint
@@ -149,7 +170,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     at the same scale (shared limits, equal aspect): membrane light grey, strain-limit layer dark
     grey, particles blue, read from ``OUT/<point_dir>/final.vtu``; the undeformed outer outline
     dashed (from the point's design.toml); the title gives the parameter and the bending angle.
-    A failed point (or one without final.vtu) gets an empty panel saying why. An unfinished one
+    A finished point without final.vtu (a kept record put back) is drawn as its strain-limit
+    layer's mid-line, rebuilt from its centreline.csv (:func:`_centreline_drawing`), the line as made
+    dashed; a failed point (or one with neither file) gets an empty panel saying why. An unfinished one
     (a table written without running) is drawn as it stands now, from its checkpoint (its title
     in grey says so: not an equilibrium), or where it has none, gets a panel saying so. A 3D point is
     drawn as its section y = 0 (the symmetry plane: half of every particle, the walls and the
@@ -165,7 +188,8 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     panels = []
     for row in rows:
         pdir = out / str(row.get("point_dir") or "")
-        panel = {"row": row, "shape": None, "outline": None, "failed": None, "section": False, "now": None}
+        panel = {"row": row, "shape": None, "outline": None, "failed": None, "section": False, "now": None,
+                 "line": None}
         if point_status(row) == "unfinished" and row.get("point_dir"):
             try:
                 current = _current_drawing(pdir)
@@ -183,7 +207,10 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
                 pts, tris, body, panel["outline"], panel["section"] = _read_drawing(pdir)
                 panel["shape"] = (pts, tris, body)
             except Exception as err:  # noqa: BLE001 - a figure must survive one bad file
-                panel["failed"] = _failure_text(row, f"cannot read final.vtu ({type(err).__name__}: {err})")
+                try:
+                    panel["line"] = _centreline_drawing(pdir)
+                except Exception:  # noqa: BLE001 - no centreline either: say why the mesh is missing
+                    panel["failed"] = _failure_text(row, f"cannot read final.vtu ({type(err).__name__}: {err})")
         panels.append(panel)
     section = any(p["section"] for p in panels)
     n = max(len(panels), 1)
@@ -191,6 +218,7 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     nrows = math.ceil(n / ncols)
     allp = [p["shape"][0] for p in panels if p["shape"] is not None]
     allp += [p["outline"] for p in panels if p["outline"] is not None]
+    allp += [np.vstack(p["line"]) for p in panels if p["line"] is not None]
     if allp:
         pts = np.vstack(allp)
         lo, hi = pts.min(axis=0), pts.max(axis=0)
@@ -223,13 +251,21 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
             ax.text(0.5, 0.5, panel["failed"], transform=ax.transAxes, ha="center", va="center", fontsize=7,
                     color="0.3" if point_status(row) == "unfinished" else "tab:red")
             continue
+        angle = number(row.get("bending_angle_deg"))
+        if panel["line"] is not None:
+            line, made = panel["line"]
+            ax.plot(made[:, 0], made[:, 1], "--", color="0.4", lw=0.8, zorder=3)
+            ax.plot(line[:, 0], line[:, 1], "-", color=_COLOURS["strain_limit"], lw=2.0, zorder=4)
+            ax.plot(line[-1, 0], line[-1, 1], "o", color=_COLOURS["strain_limit"], ms=3, zorder=5)
+            ax.set_title(head + (f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
+                         + "\n(mid-line only)", fontsize=9)
+            continue
         pts, tris, body = panel["shape"]
         order = np.argsort(body, kind="stable")  # particles drawn last, over the walls
         tris, body = tris[order], body[order]
         face = [colours.get(int(b), _COLOURS["particle"]) for b in body]
         ax.add_collection(PolyCollection(pts[tris], facecolors=face, edgecolors="face", linewidths=0.3))
         ax.add_collection(LineCollection(pts[_body_outlines(tris, body)], colors="0.2", linewidths=0.4))
-        angle = number(row.get("bending_angle_deg"))
         title = head + (f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
         if panel["now"] is not None:
             ax.set_title(f"{head}\n{panel['now']}", fontsize=9, color="0.4")
@@ -241,6 +277,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
                Patch(color=_COLOURS["strain_limit"], label="strain-limit layer"),
                Patch(color=_COLOURS["particle"], label="hydrogel particles"),
                Line2D([], [], ls="--", color="0.5", label="undeformed outline")]
+    if any(p["line"] is not None for p in panels):
+        handles.append(Line2D([], [], color=_COLOURS["strain_limit"], lw=2.0,
+                              label="strain-limit layer mid-line, from centreline.csv (final.vtu not kept)"))
     fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
     where = "3D, section y = 0; " if section else ""
     now = "; grey titles: not finished, drawn as they stand (not equilibria)" if any(p["now"] for p in panels) else ""
