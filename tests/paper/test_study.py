@@ -127,3 +127,32 @@ def test_the_kept_3d_records_restore_into_the_quick_3d_study():
         record = _read_record(folder)
         assert record["status"] == "ok" and record["key"] == key, folder.name
         assert record["metrics"]["converged"] is True and record["metrics"]["stabilisation_released"] is True
+
+
+def test_the_kept_3d_records_give_the_report_again(tmp_path):
+    """docs/data/paper-3d-quick/restore.sh puts the kept study.toml (the code's quick 3D study, not
+    a stale copy) and every kept record back into a folder, and `reproduce --report-only` writes
+    the table, figures and report from them: every kept point finished, the tenth not started.
+    A second restore into the same folder keeps its study.toml; another study's folder is refused."""
+    import subprocess
+    from pathlib import Path
+
+    from hydrojam.paper.reproduce import reproduce
+    from hydrojam.study.spec import load_study
+
+    data = Path(__file__).resolve().parents[2] / "docs" / "data" / "paper-3d-quick"
+    assert load_study(data / "study.toml") == pstudy.paper_study(quick=True, dimension=3)
+    kept = len([f for f in data.iterdir() if f.is_dir()])
+    out = tmp_path / "out"
+    for _ in range(2):
+        done = subprocess.run(["sh", str(data / "restore.sh"), str(out)], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+    table, report = reproduce(out, quick=True, dimension=3, report_only=True)
+    statuses = sorted(r.get("status") for r in {r["point_dir"]: r for r in table.rows}.values())
+    assert statuses.count("ok") == kept and len(statuses) == len({p.key for p in pstudy.paper_study(True, dimension=3).points()})
+    assert report.is_file() and (out / "figures" / "particle_layers_shapes.png").is_file()
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "study.toml").write_text('name = "my-study"\n')
+    done = subprocess.run(["sh", str(data / "restore.sh"), str(other)], capture_output=True, text=True)
+    assert done.returncode == 2 and "another study" in done.stderr and not (other / "points").exists()

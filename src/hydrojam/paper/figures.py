@@ -273,14 +273,17 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         if point_status(row) == "not_converged":
             title += " (not converged)"
         ax.set_title(title, fontsize=9, color="tab:red" if point_status(row) == "not_converged" else "k")
-    handles = [Patch(color=_COLOURS["membrane"], label="membrane"),
-               Patch(color=_COLOURS["strain_limit"], label="strain-limit layer"),
-               Patch(color=_COLOURS["particle"], label="hydrogel particles"),
-               Line2D([], [], ls="--", color="0.5", label="undeformed outline")]
+    lines_only = all(p["shape"] is None for p in panels) and any(p["line"] is not None for p in panels)
+    handles = [] if lines_only else [Patch(color=_COLOURS["membrane"], label="membrane"),
+                                     Patch(color=_COLOURS["strain_limit"], label="strain-limit layer"),
+                                     Patch(color=_COLOURS["particle"], label="hydrogel particles")]
+    handles.append(Line2D([], [], ls="--", color="0.5",
+                          label="mid-line as made" if lines_only else "undeformed outline"))
     if any(p["line"] is not None for p in panels):
         handles.append(Line2D([], [], color=_COLOURS["strain_limit"], lw=2.0,
-                              label="strain-limit layer mid-line, from centreline.csv (final.vtu not kept)"))
-    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
+                              label="strain-limit layer mid-line (centreline.csv; no final.vtu)"))
+    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 2 if ncols < 3 else 3),
+               fontsize=8, frameon=False)
     where = "3D, section y = 0; " if section else ""
     now = "; grey titles: not finished, drawn as they stand (not equilibria)" if any(p["now"] for p in panels) else ""
     fig.suptitle(f"Deformed actuators, final states ({_sweep_for(param, label, unit)[1]}); "
