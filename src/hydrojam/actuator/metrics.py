@@ -373,7 +373,8 @@ def _polyline_tangents(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     A segment's chord is the tangent at its midpoint up to O(h^2) (exactly on a circular arc).
     The chord is shorter than the arc it spans, by the factor sin(d/2) / (d/2) for a turning d
     across it; that factor, with d from a first pass, makes the arc length exact on circular arcs
-    and removes the chord's leading O(h^2) error elsewhere.
+    with even spacing and removes the chord's leading O(h^2) error elsewhere. On uneven spacing
+    the first pass interpolates in chord length, so an arc keeps a small error of higher order.
     """
     seg = np.diff(points, axis=0)
     chord = np.linalg.norm(seg, axis=1)
@@ -394,8 +395,9 @@ def centreline_profile(X_line, x_line) -> CentrelineProfile:
     Tangent directions at the nodes come from the segments' chords (each the tangent at its
     segment's midpoint, up to O(h^2)), unwrapped along the line and interpolated quadratically in
     arc length to the nodes (one-sided at the two ends): second-order accurate on uneven spacing,
-    exact for rigid motions and for uniform bending (circular arcs). Arc lengths are the chord
-    lengths corrected for the turning across each segment (exact on circular arcs). The rotation
+    exact for rigid motions and for uniform bending (circular arcs) with even spacing (uneven: a
+    small error of higher order). Arc lengths are the chord lengths corrected for the turning
+    across each segment (exact on evenly spaced circular arcs). The rotation
     is the clockwise angle from the reference to the current tangent, node by node, shifted by a
     whole number of turns so that the clamp node's rotation lies in (-pi, pi]. The curvature is
     the second-order finite difference (``np.gradient``, one-sided second order at the ends) of
