@@ -252,13 +252,13 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
                     color="0.3" if point_status(row) == "unfinished" else "tab:red")
             continue
         angle = number(row.get("bending_angle_deg"))
+        title = head + (f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
         if panel["line"] is not None:
             line, made = panel["line"]
             ax.plot(made[:, 0], made[:, 1], "--", color="0.4", lw=0.8, zorder=3)
             ax.plot(line[:, 0], line[:, 1], "-", color=_COLOURS["strain_limit"], lw=2.0, zorder=4)
             ax.plot(line[-1, 0], line[-1, 1], "o", color=_COLOURS["strain_limit"], ms=3, zorder=5)
-            ax.set_title(head + (f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
-                         + "\n(mid-line only)", fontsize=9)
+            ax.set_title(title + "\n(mid-line only)", fontsize=9)
             continue
         pts, tris, body = panel["shape"]
         order = np.argsort(body, kind="stable")  # particles drawn last, over the walls
@@ -266,20 +266,20 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         face = [colours.get(int(b), _COLOURS["particle"]) for b in body]
         ax.add_collection(PolyCollection(pts[tris], facecolors=face, edgecolors="face", linewidths=0.3))
         ax.add_collection(LineCollection(pts[_body_outlines(tris, body)], colors="0.2", linewidths=0.4))
-        title = head + (f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
         if panel["now"] is not None:
             ax.set_title(f"{head}\n{panel['now']}", fontsize=9, color="0.4")
             continue
         if point_status(row) == "not_converged":
             title += " (not converged)"
         ax.set_title(title, fontsize=9, color="tab:red" if point_status(row) == "not_converged" else "k")
-    lines_only = all(p["shape"] is None for p in panels) and any(p["line"] is not None for p in panels)
+    has_lines = any(p["line"] is not None for p in panels)
+    lines_only = has_lines and all(p["shape"] is None for p in panels)
     handles = [] if lines_only else [Patch(color=_COLOURS["membrane"], label="membrane"),
                                      Patch(color=_COLOURS["strain_limit"], label="strain-limit layer"),
                                      Patch(color=_COLOURS["particle"], label="hydrogel particles")]
     handles.append(Line2D([], [], ls="--", color="0.5",
                           label="mid-line as made" if lines_only else "undeformed outline"))
-    if any(p["line"] is not None for p in panels):
+    if has_lines:
         handles.append(Line2D([], [], color=_COLOURS["strain_limit"], lw=2.0,
                               label="strain-limit layer mid-line (centreline.csv; no final.vtu)"))
     fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 2 if ncols < 3 else 3),
