@@ -140,6 +140,8 @@ _EXPECTED = {
     "bool_type": "true or false",
     "bool_parsing": "true or false",
     "string_type": "a string",
+    "tuple_type": "a list",
+    "list_type": "a list",
     "model_type": "a table of keys",
     "model_attributes_type": "a table of keys",
     "dict_type": "a table of keys",
@@ -152,16 +154,20 @@ def _short(value, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def explain_error(err: ValidationError, model: type[BaseModel]) -> str:
+def explain_error(err: ValidationError, model: type[BaseModel], names: dict[str, str] | None = None) -> str:
     """The first problem of a ValidationError of (nested) ``model`` as one line: the dotted field
     path, what is wrong, the allowed range and unit of a numeric field, and the value given.
 
-    Validators are expected to raise ``ValueError("field: problem")``; the message is prefixed
-    with the path of the model that raised it.
+    Model validators are expected to raise ``ValueError("field: problem")``; the message is
+    prefixed with the path of the model that raised it. A field validator's message follows the
+    field's path and a colon. ``names`` maps a top-level field to the name the user gave it (a
+    CLI option, e.g. ``{"max_force": "--max-force"}``), which then replaces the path.
     """
     e = err.errors()[0]
     parts = [str(p) for p in e["loc"]]
     path = ".".join(parts)
+    if names and parts and parts[0] in names:
+        path = ".".join([names[parts[0]], *parts[1:]])
     kind = e["type"]
     got = e.get("input")
     if kind == "extra_forbidden":
@@ -169,7 +175,12 @@ def explain_error(err: ValidationError, model: type[BaseModel]) -> str:
         msg = f"{path}: unknown key (allowed: {', '.join(owner.model_fields)})"
     elif kind in ("value_error", "assertion_error"):
         text = re.sub(r"^(Value|Assertion) error, ", "", e["msg"])
-        msg = f"{path}.{text}" if path else text
+        if not path:
+            msg = text
+        elif submodel(model, parts) is None:  # a field validator: the message is about the field itself
+            msg = f"{path}: {text}"
+        else:
+            msg = f"{path}.{text}"
     else:
         rng = field_range(model, parts) if parts else None
         unit = field_unit(model, parts) if parts else ""

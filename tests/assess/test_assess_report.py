@@ -30,9 +30,9 @@ def _refused(command, design_file, tmp_path, capsys, *args) -> str:
 
 
 @pytest.mark.parametrize("args, words", [
-    (["--max-force", "-1"], "--max-force: input should be greater than 0"),
+    (["--max-force", "-1"], "--max-force: must be > 0; allowed range (0, 10.0] N/mm"),
     (["--max-force", "nan"], "--max-force: must be a finite number"),
-    (["--vacuum-kpa", "150"], "--vacuum-kpa: input should be less than or equal to 101.325"),
+    (["--vacuum-kpa", "150"], "--vacuum-kpa: must be <= 101.325; allowed range (0, 101.325] kPa"),
     (["--temperatures", "250,275"], "--temperatures: each temperature must be in liquid water's range"),
     (["--temperatures", "cold"], "--temperatures: expected comma-separated numbers"),
 ])
@@ -48,6 +48,37 @@ def test_unknown_key_in_a_loads_file_is_refused(tmp_path, design_file, capsys):
     assert "vacuum_presure: unknown key (allowed: max_force, temperatures, vacuum_pressure" in err
     with pytest.raises(AssessError, match="baseline_particles.shear_modulus"):
         loads_from_dict({"baseline_particles": {"shear_modulus": -1}})
+
+
+@pytest.mark.parametrize("text, words", [
+    ('max_force = "0.001"\n', "max_force: expected a number, got '0.001' (str)"),
+    ("max_force = true\n", "max_force: expected a number, got True (bool)"),
+    ('vacuum_pressure = "80"\n', "vacuum_pressure: expected a number, got '80' (str)"),
+    ("vacuum_pressure = false\n", "vacuum_pressure: expected a number, got False (bool)"),
+    ('temperatures = ["275", 285]\n', "temperatures.0: expected a number, got '275' (str)"),
+    ("temperatures = [275, true]\n", "temperatures.1: expected a number, got True (bool)"),
+    ("temperatures = 275\n", "temperatures: expected a list, got 275 (int)"),
+    ("temperatures = [250]\n", "temperatures: each temperature must be in liquid water's range"),
+    ("vacuum = 1\n", "vacuum: expected true or false, got 1 (int)"),
+    ('blocking = "yes"\n', "blocking: expected true or false, got 'yes' (str)"),
+    ('[baseline_particles]\nshear_modulus = "1"\n', "baseline_particles.shear_modulus: expected a number"),
+    ("[baseline_particles]\nshear_mod = 1\n", "baseline_particles.shear_mod: unknown key"),
+    ("max_force = 0.001\nblocked = false\n", "blocked: unknown key (allowed: max_force"),
+])
+def test_a_loads_file_is_as_strict_as_a_design_file(tmp_path, design_file, capsys, text, words):
+    """Wrong types (strings or booleans for numbers, integers for booleans) and unknown keys are
+    refused with one line naming the field, exit status 2, before anything is written."""
+    loads = tmp_path / "loads.toml"
+    loads.write_text(text)
+    err = _refused("assess", design_file, tmp_path, capsys, "--loads", str(loads))
+    assert f"{loads}: {words}" in err and len(err.strip().splitlines()) == 1
+    assert "Traceback" not in err
+
+
+def test_integers_are_numbers_in_a_loads_file():
+    """As in a design file, an integer is accepted where a number is meant."""
+    loads = loads_from_dict({"max_force": 1, "vacuum_pressure": 50, "temperatures": [275, 285]})
+    assert (loads.max_force, loads.vacuum_pressure, loads.temperatures) == (1.0, 50.0, (275.0, 285.0))
 
 
 def test_assess_from_the_command_line_writes_the_report(tmp_path, design_file, capsys):

@@ -9,7 +9,7 @@ import os
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from hydrojam._io import read_toml
-from hydrojam._validation import describe_error
+from hydrojam._validation import explain_error
 from hydrojam.actuator.design import WATER_RANGE_K, DesignError, ElastomerSpec
 
 #: a vacuum cannot pull harder than the atmosphere it works against [kPa]
@@ -48,6 +48,12 @@ class Loads(BaseModel):
     blocking: bool = Field(True, description="compute the blocked force at each temperature [-]")
     vacuum: bool = Field(True, description="compute the vacuum-jamming baseline [-]")
 
+    @field_validator("temperatures", mode="before")
+    @classmethod
+    def _as_tuple(cls, value):
+        # a TOML array arrives as a list; strict validation takes a tuple only
+        return tuple(value) if isinstance(value, list) else value
+
     @field_validator("temperatures")
     @classmethod
     def _in_water(cls, value):
@@ -60,7 +66,12 @@ class Loads(BaseModel):
 
 def loads_from_dict(data: dict, names: dict[str, str] | None = None) -> Loads:
     """Validated :class:`Loads` from plain data; raises :class:`AssessError` (one line naming the
-    field, or its alias in ``names``, e.g. a CLI option)."""
+    field, or its alias in ``names``, e.g. a CLI option).
+
+    As strict as a design file (:func:`hydrojam.actuator.design.design_from_dict`): TOML values
+    are typed, so a string or a boolean where a number is meant, a number where a boolean is
+    meant, and unknown keys are refused; an integer is accepted for a number.
+    """
     if not isinstance(data, dict):
         raise AssessError(f"loads: expected a table of keys, got {type(data).__name__}")
     lo, hi = WATER_RANGE_K
@@ -71,9 +82,9 @@ def loads_from_dict(data: dict, names: dict[str, str] | None = None) -> Loads:
                 label = (names or {}).get("temperatures", "temperatures")
                 raise AssessError(f"{label}: each temperature must be in liquid water's range [{lo}, {hi}] K (got {T:g} K)")
     try:
-        return Loads.model_validate(data, strict=False)
+        return Loads.model_validate(data, strict=True)
     except ValidationError as err:
-        raise AssessError(describe_error(err, Loads, names)) from None
+        raise AssessError(explain_error(err, Loads, names)) from None
 
 
 def load_loads(path: str | os.PathLike) -> Loads:
