@@ -124,6 +124,14 @@ BAD_DESIGNS = [
     ("[hydrogel]\ndiffusivity = 0.0\n", "hydrogel.diffusivity: must be > 0; allowed range (0, 0.01] mm^2/s"),
     ("[hydrogel]\ndiffusivity = -1e-4\n", "hydrogel.diffusivity: must be > 0"),
     ("[hydrogel]\ndiffusivity = 1.0\n", "hydrogel.diffusivity: must be <= 0.01"),
+    # lengths the geometry cannot build: an upper bound, or the mesh against the smallest feature
+    ("strain_limit_thickness = 1e308\n", "strain_limit_thickness: must be <= 1000"),
+    ("side_wall_thickness = 5000.0\n", "side_wall_thickness: must be <= 1000"),
+    ("cavity_length = 1e300\n", "cavity_length: must be <= 200000"),
+    ("end_wall_thickness = 1e-9\n", "end_wall_thickness: too thin for mesh.size 2 mm"),
+    ("cavity_width = 5e4\n", "mesh.size: the mesh would have about"),
+    ("[mesh]\nsize = 1e-4\n", "mesh.size: the mesh would have about"),
+    ("clearance = 1e-12\n", "clearance: must be >= 1e-6 x the actuator's larger size"),
 ]
 
 
@@ -138,6 +146,35 @@ def test_run_refuses_bad_designs_before_any_work(tmp_path, capsys, text, field):
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("hydrojam: error:") and field in lines[0]
     assert not out.exists()
+
+
+@pytest.mark.parametrize("override, words", [
+    ("strain_limit_thickness=1e308", "--set strain_limit_thickness=1e308: strain_limit_thickness: must be <= 1000; "
+                                     "allowed range (0, 1000.0] mm (got 1e+308)"),
+    ("side_wall_thickness=1e308", "side_wall_thickness: must be <= 1000"),
+    ("end_wall_thickness=inf", "end_wall_thickness: must be a finite number"),
+    ("cavity_width=1e308", "cavity_width: must be <= 200000"),
+    ("strain_limit_thickness=0.5", "strain_limit_thickness: too thin for mesh.size 2 mm: must be >= 1 mm"),
+    ("side_wall_thickness=1e-300", "side_wall_thickness: too thin for mesh.size 2 mm: must be >= 0.5 mm"),
+    ("particle_diameter=1000", "mesh.size: the mesh would have about 2.9e+06 elements"),
+])
+def test_run_refuses_lengths_it_cannot_build_before_any_work(tmp_path, capsys, override, words):
+    """A length that the geometry cannot build (gmsh's boolean operations fail, or the mesh is
+    slivers or millions of elements) is refused like any bad field: exit status 2, one line, no
+    traceback, OUT not created."""
+    out = tmp_path / "out"
+    rc, _, err = run(capsys, "run", str(write_default(tmp_path)), "-o", str(out), "--set", override)
+    assert rc == 2 and not out.exists()
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0] and "Traceback" not in err
+
+
+def write_default(tmp_path) -> Path:
+    from hydrojam import default_design, write_design
+
+    path = tmp_path / "design.toml"
+    write_design(path, default_design())
+    return path
 
 
 def test_run_with_a_schedule_writes_time_and_the_angle_time_figure(tmp_path, capsys):

@@ -97,7 +97,7 @@ def test_commented_toml_documents_every_field():
         assert table in text
     lines = text.splitlines()
     i = lines.index("strain_limit_thickness = 8.0")
-    assert "[mm]" in " ".join(lines[i - 2 : i]) and "(0, inf)" in " ".join(lines[i - 2 : i])
+    assert "[mm]" in " ".join(lines[i - 2 : i]) and "(0, 1000.0]" in " ".join(lines[i - 2 : i])
     assert all(len(line) <= 100 for line in lines)
     assert "#" not in design_to_toml(default_design(), comments=False)
 
@@ -116,7 +116,7 @@ def test_write_and_load(tmp_path):
         ({"cavity_length": 80.0}, ["cavity_length", "need cavity_length >= 80.6"]),
         ({"dimension": 3, "cavity_depth": 16.0}, ["cavity_depth", "16.2"]),
         ({"cavity_depth": 20.0}, ["cavity_depth", "dimension = 3"]),
-        ({"strain_limit_thickness": -1}, ["strain_limit_thickness", "(0, inf)", "mm", "-1"]),
+        ({"strain_limit_thickness": -1}, ["strain_limit_thickness", "(0, 1000.0]", "mm", "-1"]),
         ({"particle_layers": 0}, ["particle_layers", "[1, 100]", "got 0"]),
         ({"particle_layers": 5.5}, ["particle_layers", "expected an integer", "5.5"]),
         ({"particle_diameter": "big"}, ["particle_diameter", "expected a number", "'big'"]),
@@ -235,7 +235,8 @@ def test_partial_file_takes_defaults(tmp_path):
 def test_field_range_walks_nested_models():
     assert field_range(Design, "stimulus.temperature") == "[273.15, 373.15]"
     assert field_range(Design, ("hydrogel", "n")) == "(0, 1.0]"
-    assert field_range(Design, "strain_limit_thickness") == "(0, inf)"
+    assert field_range(Design, "strain_limit_thickness") == "(0, 1000.0]"
+    assert field_range(Design, "clearance") == "(0, inf)"
     assert field_range(Design, "stimulus.nope") is None
     assert field_range(HydrogelParams, "n") == "(0, 1.0]"  # the old one-level use
 
@@ -269,3 +270,55 @@ def test_replicas_of_a_design():
             with_replicas(default_design(), bad)
     with pytest.raises(DesignError, match=r"^replicas.index"):
         with_replicas(r, 2)
+
+
+def test_every_length_field_has_an_upper_bound_or_a_relative_one():
+    """Each length of the design is bounded above: by its own range, or (clearance, mesh.size,
+    friction_slip) relative to another field, so no length reaches the geometry unchecked."""
+    from hydrojam.actuator.design import MAX_CAVITY_MM, MAX_WALL_MM
+
+    for name in ("side_wall_thickness", "end_wall_thickness", "strain_limit_thickness"):
+        assert field_range(Design, name) == f"(0, {MAX_WALL_MM}]"
+    for name in ("cavity_width", "cavity_length", "cavity_depth"):
+        assert field_range(Design, name) == f"(0, {MAX_CAVITY_MM}]"
+    assert field_range(Design, "particle_diameter") == "(0, 1000]"
+    # the largest cavity derived from the particles stays inside the cavity's own range
+    big = Design(particle_diameter=1000.0, particle_layers=100, clearance=249.0, mesh={"size": 250.0},
+                 side_wall_thickness=100.0, end_wall_thickness=100.0, strain_limit_thickness=200.0)
+    assert big.resolved().cavity_length <= MAX_CAVITY_MM
+
+
+@pytest.mark.parametrize("data, words", [
+    ({"side_wall_thickness": 0.4}, "side_wall_thickness: too thin for mesh.size 2 mm: must be >= 0.5 mm"),
+    ({"end_wall_thickness": 0.1, "mesh": {"size": 1.0}}, "end_wall_thickness: too thin for mesh.size 1 mm: must be >= 0.25 mm"),
+    ({"strain_limit_thickness": 0.9}, "strain_limit_thickness: too thin for mesh.size 2 mm: must be >= 1 mm"),
+    ({"cavity_width": 3e4}, "mesh.size: the mesh would have about"),
+    ({"dimension": 3, "mesh": {"size": 0.3}}, "mesh.size: the mesh would have about"),
+    ({"clearance": 1e-5}, "clearance: must be >= 1e-6 x the actuator's larger size 88.0001 mm"),
+])
+def test_designs_the_geometry_cannot_build_are_refused(data, words):
+    with pytest.raises(DesignError) as err:
+        design_from_dict(data)
+    assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_buildability_limits_leave_room_for_the_paper_and_the_examples():
+    """The thinnest walls in use (the quick study: t0 = 2 mm at mesh.size 4 mm; the bead-size
+    study: t0 = d/8 at d/4) pass, and the paper's largest mesh (the full 3D study) has a tenth of
+    MAX_ELEMENTS or fewer."""
+    from hydrojam.actuator.design import MAX_ELEMENTS
+    from hydrojam.paper.study import paper_study
+
+    Design(mesh={"size": 4.0}, side_wall_thickness=1.0, strain_limit_thickness=2.0)  # walls at mesh/4
+    largest = max(p.design.estimated_elements() for p in paper_study(False, None, dimension=3).points())
+    assert largest < 0.2 * MAX_ELEMENTS
+
+
+def test_estimated_elements_is_within_a_factor_two_of_gmsh():
+    """The estimate (outer area over an equilateral triangle of edge mesh.size) against the mesh
+    gmsh makes: gmsh refines round the particles, so it makes more, up to about twice."""
+    from hydrojam.actuator.geometry import mesh_design
+
+    for d in (Design(), Design(particle_layers=2, mesh={"size": 1.0})):
+        n = len(mesh_design(d).cells)
+        assert 0.5 * n <= d.estimated_elements() <= 2.0 * n

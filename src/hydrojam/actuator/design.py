@@ -31,6 +31,9 @@ _REL_TOL = 1e-9  # relative slack of the fit checks: a derived cavity fits exact
 _YEOH_I1_RANGE = 30.0  # Yeoh stiffness must stay positive for 0 <= I1bar - 3 <= this (uniaxial stretch ~5.6)
 
 __all__ = [
+    "MAX_CAVITY_MM",
+    "MAX_ELEMENTS",
+    "MAX_WALL_MM",
     "Design",
     "DesignError",
     "ElastomerSpec",
@@ -221,6 +224,24 @@ class MeshSpec(BaseModel):
     )
 
 
+#: thickest wall or strain-limit layer [mm]: 1 m, the particle diameter's own bound; a
+#: hand-made chamber's walls are millimetres, anything near this is a unit mistake
+MAX_WALL_MM = 1000.0
+#: thinnest wall (t0, t1, and each half h/2 of the strain-limit layer, which is meshed in two
+#: halves) as a share of mesh.size: thinner, one quadratic element spans it with an aspect ratio
+#: above 4, a row of slivers
+MIN_WALL_PER_MESH = 0.25
+#: most elements a design's mesh may have, estimated from its size (:meth:`Design.estimated_elements`):
+#: ten times the paper's largest (the 3D study at mesh.size 2 mm, about 1e5); beyond it gmsh runs
+#: for hours and the solver needs more memory than a workstation holds
+MAX_ELEMENTS = 1_000_000
+#: smallest clearance as a share of the actuator's larger outer size (length or width): below
+#: it the gaps drawn in the geometry approach the round-off of the coordinates
+MIN_CLEARANCE_PER_SIZE = 1e-6
+#: largest cavity size [mm]: 200 m, above the largest cavity derived from the particles
+#: (100 layers of 1 m particles with 0.25 m clearances, 125 m)
+MAX_CAVITY_MM = 2e5
+
 #: most replicas of one design (each is a full simulation)
 MAX_REPLICAS = 1000
 #: largest jitter of a particle centre, as a share of the clearance c: two neighbours moving
@@ -281,6 +302,10 @@ class Design(BaseModel):
       strain: no depth to set or cut);
     - ``mesh.size <= particle_diameter / 4`` (about 12 or more quadratic edges round a particle)
       and ``mesh.size <= cavity_length``;
+    - the geometry can be built: every wall (t0, t1 and each half h/2 of the strain-limit layer)
+      at least ``mesh.size / 4`` thick (:data:`MIN_WALL_PER_MESH`), the clearance at least 1e-6 of
+      the actuator's length or width (:data:`MIN_CLEARANCE_PER_SIZE`), and the mesh at most
+      :data:`MAX_ELEMENTS` elements (:meth:`estimated_elements`);
     - the elastomers' own checks (:class:`ElastomerSpec`).
     """
 
@@ -295,21 +320,21 @@ class Design(BaseModel):
     clearance: float = Field(
         0.1, gt=0, description="initial gap between particles, and between particles and walls c [mm]"
     )
-    side_wall_thickness: float = Field(2.0, gt=0, description="membrane side-wall thickness t0 [mm]")
-    end_wall_thickness: float = Field(4.0, gt=0, description="membrane top and bottom wall thickness t1 [mm]")
+    side_wall_thickness: float = Field(2.0, gt=0, le=MAX_WALL_MM, description="membrane side-wall thickness t0 [mm]")
+    end_wall_thickness: float = Field(4.0, gt=0, le=MAX_WALL_MM, description="membrane top and bottom wall thickness t1 [mm]")
     strain_limit_thickness: float = Field(
-        8.0, gt=0, description="strain-limit layer thickness h, bonded on the -x face over the full length [mm]"
+        8.0, gt=0, le=MAX_WALL_MM, description="strain-limit layer thickness h, bonded on the -x face over the full length [mm]"
     )
     cavity_width: float | None = Field(
         None,
-        gt=0,
+        gt=0, le=MAX_CAVITY_MM,
         description="cavity width along x; omitted: particles_per_layer d + (particles_per_layer + 1) c [mm]",
     )
     cavity_length: float | None = Field(
-        None, gt=0, description="cavity length along the axis z; omitted: PL d + (PL + 1) c [mm]"
+        None, gt=0, le=MAX_CAVITY_MM, description="cavity length along the axis z; omitted: PL d + (PL + 1) c [mm]"
     )
     cavity_depth: float | None = Field(
-        None, gt=0, description="cavity depth along y, 3D only; omitted: d + 2 c [mm]"
+        None, gt=0, le=MAX_CAVITY_MM, description="cavity depth along y, 3D only; omitted: d + 2 c [mm]"
     )
     friction: float = Field(
         0.01,
@@ -376,6 +401,19 @@ class Design(BaseModel):
         """Actuator width along x, h + 2 t0 + cavity_width [mm]."""
         return self.strain_limit_thickness + 2.0 * self.side_wall_thickness + self.resolved_cavity_width
 
+    def estimated_elements(self) -> float:
+        """About how many elements the mesh has [-]: the actuator's outer area (2D) or volume (3D;
+        half of it for the half model) over that of an equilateral triangle or regular tetrahedron
+        of edge ``mesh.size``. gmsh refines near the particles and thin walls: the real count is up
+        to about twice this (1492 against 1443 for the default design). inf where the sizes overflow."""
+        h = self.mesh.size
+        area = self.width * self.length
+        if self.dimension == 2:
+            return area / (math.sqrt(3.0) / 4.0 * h * h)
+        depth = self.resolved_cavity_depth + 2.0 * self.side_wall_thickness
+        volume = area * depth * (0.5 if self.mesh.symmetry else 1.0)
+        return volume / (h**3 / (6.0 * math.sqrt(2.0)))
+
     def resolved(self) -> Design:
         """A copy with cavity_width, cavity_length (and cavity_depth in 3D) written out explicitly,
         and with a schedule, stimulus.temperature set to the schedule's last temperature."""
@@ -439,6 +477,32 @@ class Design(BaseModel):
         if h > self.resolved_cavity_length:
             raise ValueError(
                 f"mesh.size: must be <= cavity_length {_g(self.resolved_cavity_length)} mm (got {_g(h)} mm)"
+            )
+        walls = [("side_wall_thickness", self.side_wall_thickness, 1.0),
+                 ("end_wall_thickness", self.end_wall_thickness, 1.0),
+                 ("strain_limit_thickness", self.strain_limit_thickness, 0.5)]
+        for name, t, share in walls:
+            if share * t < MIN_WALL_PER_MESH * h:
+                need = MIN_WALL_PER_MESH * h / share
+                halves = " (it is meshed in two halves, each >= mesh.size/4)" if share != 1.0 else ""
+                raise ValueError(
+                    f"{name}: too thin for mesh.size {_g(h)} mm: must be >= {_g(need)} mm{halves}, else "
+                    f"its elements are slivers (got {_g(t)} mm); use a thicker wall or a smaller mesh.size"
+                )
+        n = self.estimated_elements()
+        if not n <= MAX_ELEMENTS:
+            dims = f"{_g(self.width)} x {_g(self.length)} mm" + (
+                f" x {_g(self.resolved_cavity_depth + 2.0 * self.side_wall_thickness)} mm" if self.dimension == 3 else "")
+            raise ValueError(
+                f"mesh.size: the mesh would have about {n:.2g} elements ({dims} at mesh.size {_g(h)} mm); "
+                f"at most {MAX_ELEMENTS:.0e} are built: use a larger mesh.size or a smaller actuator"
+            )
+        size = max(self.width, self.length)
+        if c < MIN_CLEARANCE_PER_SIZE * size:
+            raise ValueError(
+                f"clearance: must be >= 1e-6 x the actuator's larger size {_g(size)} mm = "
+                f"{_g(MIN_CLEARANCE_PER_SIZE * size)} mm: a smaller gap is lost in the round-off of the "
+                f"geometry (got {_g(c)} mm)"
             )
         return self
 
