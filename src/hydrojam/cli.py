@@ -756,15 +756,26 @@ def assess_design(
 
 
 def _numbers(option: str, text: str, unit: str) -> list[float]:
-    """Comma-separated positive finite numbers of a CLI option, or InputError naming it."""
+    """Comma-separated numbers of a CLI option, or InputError naming it (their range is the
+    design field's: :func:`_field_values`)."""
     try:
-        values = [float(t) for t in text.split(",")]
+        return [float(t) for t in text.split(",")]
     except ValueError:
         raise InputError(f"{option}: expected comma-separated numbers in {unit}, e.g. 1,2,4 (got {text!r})") from None
+
+
+def _field_values(design, option: str, field: str, values: list[float]) -> None:
+    """Each of ``values`` of a CLI list option that feeds the design field ``field`` (dotted) put
+    into ``design`` and validated as that field is everywhere (its range, non-finite numbers, the
+    design's checks); InputError naming the option, the value and the field's rule."""
+    from hydrojam.actuator.design import DesignError, apply_overrides
+
     for v in values:
-        if not (math.isfinite(v) and v > 0):
-            raise InputError(f"{option}: each value must be a finite number > 0 {unit} (got {v:g})")
-    return values
+        item = f"{field}={v!r}"
+        try:
+            apply_overrides(design, [item])
+        except DesignError as err:
+            raise InputError(f"{option} {v:g}: {str(err).removeprefix(f'--set {item}: ')}") from None
 
 
 @app.command("design-map")
@@ -783,10 +794,17 @@ def design_map_command(
     if not design_file.is_file():
         raise InputError(f"{design_file}: no such design file")
     design = _design_or_exit(design_file, overrides)
-    ts, gs = _numbers("--thickness", thickness, "mm"), _numbers("--modulus", modulus, "MPa")
-    _check_workers(workers, None, out)
     from hydrojam.actuator.design import DesignError
-    from hydrojam.assess.design_map import MAP_VALUES, MODULUS, THICKNESS, design_map
+    from hydrojam.assess.design_map import MAP_VALUES, MODULUS, THICKNESS, design_map, map_study
+
+    ts, gs = _numbers("--thickness", thickness, "mm"), _numbers("--modulus", modulus, "MPa")
+    _field_values(design, "--thickness", THICKNESS, ts)
+    _field_values(design, "--modulus", MODULUS, gs)
+    try:
+        map_study(design, ts, gs)  # every pair, before any work
+    except DesignError as err:
+        raise InputError(f"--thickness/--modulus: {err}") from None
+    _check_workers(workers, None, out)
 
     console = Console(stderr=True)
 

@@ -127,13 +127,31 @@ def test_design_map_runs_as_a_cached_sweep(tmp_path):
 
 
 @pytest.mark.parametrize("args, words", [
-    (["--thickness", "1,-2"], "--thickness: each value must be a finite number > 0 mm"),
+    (["--thickness", "1,-2"], "--thickness -2: side_wall_thickness: must be > 0; allowed range (0, 1000.0] mm"),
     (["--modulus", "0.02,soft"], "--modulus: expected comma-separated numbers in MPa"),
     (["--workers", "0"], "--workers: must be >= 1"),
+    # each value goes through its design field's own validation (it ended in a pydantic traceback)
+    (["--modulus", "20000"], "--modulus 20000: membrane.shear_modulus: must be <= 10000; allowed range (0, 10000.0] MPa"),
+    (["--modulus", "0.02,0"], "--modulus 0: membrane.shear_modulus: must be > 0"),
+    (["--modulus", "nan"], "--modulus nan: membrane.shear_modulus: must be a finite number"),
+    (["--thickness", "inf"], "--thickness inf: side_wall_thickness: must be a finite number"),
+    (["--thickness", "5000"], "--thickness 5000: side_wall_thickness: must be <= 1000"),
+    (["--thickness", "2,0.5"], "--thickness 0.5: side_wall_thickness: too thin for mesh.size 4 mm"),
 ])
 def test_design_map_refuses_bad_ranges_before_any_work(tmp_path, design_file, capsys, args, words):
     err = _refused("design-map", design_file, tmp_path, capsys, *args)
-    assert words in err and len(err.strip().splitlines()) == 1
+    assert words in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_design_map_study_validates_every_pair():
+    """From Python as well: a point of the map that is not a valid design is a DesignError
+    naming the sweep point and the field, before anything runs."""
+    from hydrojam.actuator.design import DesignError
+    from hydrojam.assess.design_map import map_study
+
+    with pytest.raises(DesignError, match=r"point 1 .*membrane.shear_modulus: must be <= 10000"):
+        map_study(QUICK, [2.0], [0.023, 2e4])
+    assert len(map_study(QUICK, [1.0, 2.0], [0.023]).points()) == 2
 
 
 @pytest.mark.parametrize("command", ["assess", "design-map"])

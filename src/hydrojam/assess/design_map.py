@@ -39,6 +39,23 @@ def map_point(design: Design, point_dir: Path) -> dict:
     return values
 
 
+def map_study(base: Design, thicknesses, shear_moduli) -> Study:
+    """The study of the map: one sweep "membrane" over ``thicknesses`` [mm] (side_wall_thickness)
+    x ``shear_moduli`` [MPa] (membrane.shear_modulus). Every point's design is validated here:
+    DesignError naming the field, the value and its allowed range for the first that is not a
+    valid design (a modulus above the field's range, a wall too thin for the mesh)."""
+    from pydantic import ValidationError
+
+    from hydrojam.study.spec import StudyError, _one_line
+
+    try:
+        return Study(name="design_map", base=base, sweeps=[SweepSpec(
+            name="membrane", vary={THICKNESS: [float(t) for t in thicknesses],
+                                   MODULUS: [float(g) for g in shear_moduli]})])
+    except ValidationError as err:
+        raise StudyError(_one_line(err, Study, "")) from None
+
+
 def design_map(base: Design, thicknesses, shear_moduli, out: str | os.PathLike, workers: int | None = None,
                on_point=None) -> list[dict]:
     """Run the map over ``thicknesses`` [mm] (the membrane's side walls, t0) x ``shear_moduli``
@@ -47,8 +64,7 @@ def design_map(base: Design, thicknesses, shear_moduli, out: str | os.PathLike, 
     :data:`MAP_VALUES` (None where a point failed), and writes ``out``/design_map.png. Raises
     DesignError for a base design that cannot be assessed (a 3D one), before anything runs."""
     check_assessable(base)
-    study = Study(name="design_map", base=base, sweeps=[SweepSpec(
-        name="membrane", vary={THICKNESS: [float(t) for t in thicknesses], MODULUS: [float(g) for g in shear_moduli]})])
+    study = map_study(base, thicknesses, shear_moduli)
     run_sweep(study, out, workers=workers, on_point=on_point, point_fn=map_point)
     rows = []
     for p in study.points():
