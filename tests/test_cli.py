@@ -416,3 +416,65 @@ def test_running_points_in_the_release_say_how_far_it_has_gone():
     assert on_path == "temperature[0] stimulus.temperature=285: s = 0.500 after 42 s"
     assert in_release.startswith("temperature[1] stimulus.temperature=295: s = 1.000 after 90 min, ")
     assert in_release.endswith("releasing the stabilisation: 12 rounds, 1534 iterations, damping 100x")
+
+
+def _names_and_mtime(folder: Path):
+    """A folder's names and its modification time: a file made and removed changes the time."""
+    return sorted(os.listdir(folder)), folder.stat().st_mtime_ns
+
+
+@pytest.mark.parametrize("args, target, words", [
+    (["init", "{t}", "--force"], "adir.toml", "adir.toml: is a folder, not a file"),
+    (["init", "{t}"], "sub/adir.toml", "adir.toml: is a folder, not a file"),  # without --force too
+    (["swell", "--temperatures", "280,300", "--plot", "{t}"], "p.png", "--plot: "),
+    (["swell", "--temperatures", "280,300", "--plot", "{t}"], "sub/p.png", "--plot: "),
+])
+def test_a_file_target_that_is_a_folder_is_refused_before_a_temporary_file(tmp_path, capsys, args, target, words):
+    """The target is checked before the atomic write makes its temporary file beside it: exit
+    status 2, one line, and the parent folder's listing (and its modification time) unchanged."""
+    path = tmp_path / target
+    path.mkdir(parents=True)
+    (path / "keep.txt").write_text("x")
+    before, inside = _names_and_mtime(path.parent), _names_and_mtime(path)
+    rc, _, err = run(capsys, *[a.format(t=path) for a in args])
+    assert rc == 2 and words in err and len(err.strip().splitlines()) == 1
+    assert _names_and_mtime(path.parent) == before and _names_and_mtime(path) == inside
+
+
+@pytest.mark.parametrize("args", [["init", "{t}"], ["swell", "--temperatures", "280", "--plot", "{t}"]])
+def test_a_file_target_under_a_regular_file_is_refused(tmp_path, capsys, args):
+    """A parent that is a regular file: refused naming it, nothing created."""
+    blocker = tmp_path / "afile"
+    blocker.write_text("x")
+    name = "d.toml" if args[0] == "init" else "p.png"
+    before = _names_and_mtime(tmp_path)
+    rc, _, err = run(capsys, *[a.format(t=blocker / "sub" / name) for a in args])
+    assert rc == 2 and f"{blocker}: a parent of the file is not a folder" in err
+    assert _names_and_mtime(tmp_path) == before and blocker.read_text() == "x"
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="needs POSIX permissions, not root")
+def test_a_file_target_in_a_read_only_folder_is_refused(tmp_path, capsys):
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    folder.chmod(0o555)
+    try:
+        rc, _, err = run(capsys, "init", str(folder / "d.toml"))
+        assert rc == 2 and "cannot be written into" in err and os.listdir(folder) == []
+    finally:
+        folder.chmod(0o755)
+
+
+def test_atomic_path_checks_the_target_first(tmp_path):
+    """From Python: atomic_path refuses a folder target without touching its parent."""
+    from hydrojam._io import atomic_path, write_text_atomic
+
+    (tmp_path / "t.txt").mkdir()
+    (tmp_path / "f.txt").write_text("x")
+    before = _names_and_mtime(tmp_path)
+    with pytest.raises(IsADirectoryError):
+        write_text_atomic(tmp_path / "t.txt", "x")
+    with pytest.raises(NotADirectoryError):
+        with atomic_path(tmp_path / "f.txt" / "x" / "y.txt"):
+            pass
+    assert _names_and_mtime(tmp_path) == before

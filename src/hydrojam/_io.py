@@ -27,6 +27,24 @@ def make_folder(path: str | os.PathLike) -> Path:
     return path
 
 
+def check_file_target(path: str | os.PathLike) -> None:
+    """Refuse, before anything is created, a file path that cannot be written: an OSError naming
+    the path when ``path`` is a folder (IsADirectoryError), when its nearest existing ancestor is
+    not a folder (NotADirectoryError: a parent is a regular file) or cannot be written into
+    (PermissionError). Folders still missing between that ancestor and the file are not made
+    here."""
+    path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "is a folder, not a file", os.fspath(path))
+    ancestor = path.parent
+    while not os.path.lexists(ancestor) and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, "a parent of the file is not a folder", os.fspath(ancestor))
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise PermissionError(errno.EACCES, "the folder cannot be written into", os.fspath(ancestor))
+
+
 def _umask() -> int:
     """The process's umask, read without changing it where the system tells (Linux: a change,
     even restored at once, would race with other threads creating files)."""
@@ -52,12 +70,15 @@ def atomic_path(path: str | os.PathLike):
     """Yield a temporary path beside ``path``; on success it replaces ``path`` in one rename.
 
     The file gets the user's usual permissions (:func:`file_mode`), not the temporary file's
-    0600. An OSError (not a folder, no permission, no space, read-only) names ``path``, not the
-    temporary file; nothing is left behind.
+    0600. The target is checked first (:func:`check_file_target`: a folder, a parent that is a
+    file, a folder that cannot be written), so a refused path leaves its folder unchanged, not
+    even a temporary file made and removed. An OSError (not a folder, no permission, no space,
+    read-only) names ``path``, not the temporary file; nothing is left behind.
     """
     path = Path(path)
     tmp = None
     try:
+        check_file_target(path)
         make_folder(path.parent)
         try:
             fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)

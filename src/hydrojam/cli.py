@@ -138,6 +138,8 @@ def swell(
         raise InputError(f"--mu: must be <= 0 k_B T (pure water is 0; above it a gel swells without bound) (got {mu})")
     if plot is not None and plot.suffix.lower() != ".png":
         raise InputError(f"--plot: the figure file must end in .png (got {str(plot)!r})")
+    if plot is not None:
+        _check_file_target("--plot", plot)
     Ts = _temperatures(temperatures, t_min, t_max, t_step)
 
     transition, states = swelling_curve(params, mu, Ts)
@@ -180,6 +182,17 @@ def swell(
         Console().print(f"figure written: {plot}")
 
 
+def _check_file_target(option: str | None, path: Path) -> None:
+    """InputError naming ``option`` (if any) and the path when a file cannot be written at ``path`` (a folder, a parent
+    that is a file, a folder without write permission), before any work or temporary file."""
+    from hydrojam._io import check_file_target
+
+    try:
+        check_file_target(path)
+    except OSError as err:
+        raise InputError(f"{option + ': ' if option else ''}{err.filename}: {err.strerror}") from None
+
+
 def _design_or_exit(design_file: Path | None, overrides: list[str]):
     from hydrojam.actuator.design import DesignError, apply_overrides, default_design, load_design
     from hydrojam.actuator.model import check_supported
@@ -202,6 +215,7 @@ def init(
     """Write the default actuator design as a commented TOML file (every field, units, ranges)."""
     from hydrojam.actuator.design import write_design
 
+    _check_file_target(None, path)
     if path.exists() and not force:
         raise InputError(f"{path}: exists; use --force to overwrite it")
     if path.suffix.lower() != ".toml":
