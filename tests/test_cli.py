@@ -478,3 +478,84 @@ def test_atomic_path_checks_the_target_first(tmp_path):
         with atomic_path(tmp_path / "f.txt" / "x" / "y.txt"):
             pass
     assert _names_and_mtime(tmp_path) == before
+
+
+def _folder_of(tmp_path, kind: str) -> Path:
+    """A folder holding one kind of output, made by hand (its marker file and a design.toml)."""
+    folder = tmp_path / kind.replace(" ", "_")
+    folder.mkdir()
+    marker = {"study": "study.toml", "study point": "point.json", "assessment": "assessment.json",
+              "run": "metrics.json"}[kind]
+    (folder / marker).write_text('name = "other"\n' if marker == "study.toml" else "{}\n")
+    (folder / "design.toml").write_text("particle_layers = 1\n")
+    return folder
+
+
+def _quick_inputs(tmp_path) -> tuple[Path, Path]:
+    design = tmp_path / "d.toml"
+    design.write_text("particle_layers = 1\n[mesh]\nsize = 4.0\n")
+    study = tmp_path / "s.toml"
+    study.write_text('[design]\nparticle_layers = 1\nmesh.size = 4.0\n[[sweep]]\nname = "T"\n'
+                     '[sweep.vary]\n"stimulus.temperature" = [295]\n')
+    return design, study
+
+
+@pytest.mark.parametrize("command, kind, found", [
+    ("run", "study", "a study"),
+    ("run", "study point", "one point of a study"),
+    ("run", "assessment", "an assessment"),
+    ("run --replicas 2", "run", "a single run"),
+    ("assess", "run", "a single run"),
+    ("assess", "study", "a study"),
+    ("sweep", "run", "a single run"),
+    ("sweep", "assessment", "an assessment"),
+    ("design-map", "run", "a single run"),
+    ("snapshot", "run", "a single run"),
+])
+def test_a_folder_of_another_kind_of_output_is_refused(tmp_path, capsys, command, kind, found):
+    """Every command that writes a folder refuses one holding another kind of output (a run's
+    files in a study's folder, an assessment overwriting a run's design.toml): exit status 2,
+    one line naming what the folder holds, nothing in it changed."""
+    design, study = _quick_inputs(tmp_path)
+    folder = _folder_of(tmp_path, kind)
+    before = _listing(folder), (folder / "design.toml").read_text()
+    name, *extra = command.split()
+    if name == "snapshot":  # snapshot SRC -o DEST: DEST is the folder written
+        args = [name, str(tmp_path), "-o", str(folder)]
+    else:
+        args = [name, str(study if name == "sweep" else design), "-o", str(folder), *extra, "--quiet"]
+    rc, _, err = run(capsys, *args)
+    assert rc == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and f"holds the output of {found}" in lines[0] and "Traceback" not in err
+    assert (_listing(folder), (folder / "design.toml").read_text()) == before
+
+
+@pytest.mark.parametrize("command", ["run", "assess", "sweep", "design-map", "run --replicas 2"])
+def test_a_folder_a_live_run_holds_is_refused_by_every_command(tmp_path, capsys, command):
+    """The same lock file for every command that writes a folder: one held by a live process
+    (this one) is refused before anything is written."""
+    import socket
+
+    design, study = _quick_inputs(tmp_path)
+    folder = tmp_path / "live"
+    folder.mkdir()
+    lock = folder / ".hydrojam.lock"
+    lock.write_text(json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "started": "now"}))
+    name, *extra = command.split()
+    rc, _, err = run(capsys, name, str(study if name == "sweep" else design), "-o", str(folder), *extra, "--quiet")
+    assert rc == 2 and f"in use by process {os.getpid()}" in err and len(err.strip().splitlines()) == 1
+    assert _listing(folder) == [".hydrojam.lock"]
+
+
+def test_folder_kind_reads_the_markers(tmp_path):
+    from hydrojam._io import FolderKindError, check_folder_kind, folder_kind
+
+    assert folder_kind(tmp_path / "missing") is None and folder_kind(tmp_path) is None
+    for kind in ("study", "study point", "assessment", "run"):
+        folder = _folder_of(tmp_path, kind)
+        assert folder_kind(folder) == kind
+        if kind != "study point":
+            check_folder_kind(folder, kind)  # the same kind: a rerun, a resume
+        with pytest.raises(FolderKindError, match="choose another output folder"):
+            check_folder_kind(folder, "snapshots")

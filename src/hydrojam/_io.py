@@ -217,3 +217,61 @@ def hold_lock(path: str | os.PathLike):
         yield path
     finally:
         path.unlink(missing_ok=True)
+
+
+#: the files that mark what an output folder holds, first match wins (:func:`folder_kind`)
+_KIND_MARKERS = (
+    ("study", ("study.toml",)),  # sweep, reproduce, design-map, run --replicas
+    ("study point", ("point.json",)),  # one point's folder inside a study's points/
+    ("assessment", ("assessment.json",)),  # hydrojam assess
+    ("run", ("metrics.json", "history.csv", "checkpoint.npz", "results.pvd")),  # hydrojam run
+)
+#: what each kind of folder is, in the refusal's words
+_KIND_WORDS = {"study": "a study (sweep, reproduce, design-map or run --replicas; its study.toml)",
+               "study point": "one point of a study (its point.json)",
+               "assessment": "an assessment (hydrojam assess; its assessment.json)",
+               "run": "a single run (hydrojam run; its metrics.json, history.csv or checkpoint)",
+               "snapshots": "snapshots (hydrojam snapshot)"}
+
+
+class FolderKindError(ValueError):
+    """The output folder holds another kind of hydrojam output; the message names both."""
+
+
+def folder_kind(path: str | os.PathLike) -> str | None:
+    """What the folder ``path`` holds, read from its marker files: "study", "study point",
+    "assessment" or "run"; None for a missing folder or one without hydrojam output (snapshots
+    have no marker)."""
+    path = Path(path)
+    for kind, names in _KIND_MARKERS:
+        if any(os.path.lexists(path / n) for n in names):
+            return kind
+    return None
+
+
+def check_folder_kind(path: str | os.PathLike, kind: str) -> None:
+    """FolderKindError when the folder ``path`` holds output of another kind than ``kind`` (one of
+    "study", "assessment", "run", "snapshots"): a run's files in a study's folder would be taken
+    for the study's, an assessment would overwrite a run's design.toml. Missing and empty
+    folders, and folders of the same kind (a rerun, a resume), pass."""
+    found = folder_kind(path)
+    if found is not None and found != kind:
+        raise FolderKindError(
+            f"{path}: holds the output of {_KIND_WORDS[found]}, not of {_KIND_WORDS[kind]}; "
+            "choose another output folder, or delete this one to start over")
+
+
+@contextlib.contextmanager
+def output_folder(path: str | os.PathLike, kind: str):
+    """Take the output folder ``path`` for writing output of ``kind`` (:func:`check_folder_kind`):
+    refused before anything is written when it is not a folder (NotADirectoryError), holds
+    another kind (FolderKindError) or another live process holds its lock (LockHeld); then made
+    and held (:func:`hold_lock`, the lock file :data:`FOLDER_LOCK`) while the block runs, its kind
+    checked again under the lock. Yields the folder's Path."""
+    path = Path(path)
+    if os.path.lexists(path) and not path.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, "exists and is not a folder", os.fspath(path))
+    check_folder_kind(path, kind)
+    with hold_lock(make_folder(path) / FOLDER_LOCK):
+        check_folder_kind(path, kind)  # another process may have written it meanwhile
+        yield path

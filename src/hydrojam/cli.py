@@ -3,6 +3,7 @@ one line naming the option and its allowed range."""
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import errno
 import io
@@ -254,8 +255,6 @@ def run_design(
     the release, and removed when it ends. Run the same design into the same OUT again and it goes
     on from there (--fresh: from s = 0).
     """
-    from hydrojam._io import FOLDER_LOCK, LockHeld, hold_lock
-
     replicas = _check_replicas(replicas)
     if not design_file.is_file():
         raise InputError(f"{design_file}: no such design file")
@@ -272,12 +271,22 @@ def run_design(
     if workers is not None or scheduler is not None:
         raise InputError(f"{'--workers' if workers is not None else '--scheduler'}: only with --replicas N > 1 "
                          "(a single run is one process)")
-    make_folder(out)  # before meshing: a folder that cannot be made is refused at once
-    try:
-        with hold_lock(out / FOLDER_LOCK):
-            _run_one(design, design_file, out, vtu, fresh, quiet)
-    except LockHeld as err:
-        raise InputError(str(err)) from None
+    with _output_folder(out, "run"):  # before meshing: a folder that cannot be taken is refused at once
+        _run_one(design, design_file, out, vtu, fresh, quiet)
+
+
+@contextlib.contextmanager
+def _output_folder(out: Path, kind: str):
+    """:func:`hydrojam._io.output_folder` with its refusals (another kind of output, a live
+    run's lock) as one line, exit status 2."""
+    from hydrojam._io import FolderKindError, LockHeld, output_folder
+
+    with contextlib.ExitStack() as stack:
+        try:
+            stack.enter_context(output_folder(out, kind))
+        except (FolderKindError, LockHeld) as err:
+            raise InputError(str(err)) from None
+        yield out
 
 
 def _run_one(design, design_file: Path, out: Path, vtu: bool, fresh: bool, quiet: bool) -> None:
@@ -751,12 +760,12 @@ def assess_design(
         raise InputError(str(err)) from None
     if out.exists() and not out.is_dir():
         raise InputError(f"--out: {out} exists and is not a folder")
-    make_folder(out)
     from hydrojam.assess.report import write_report
 
     console = Console(stderr=True)
-    result = assess(design, loads, on_progress=None if quiet else lambda m: console.print(f"hydrojam assess: {m}..."))
-    report = write_report(result, out)
+    with _output_folder(out, "assessment"):
+        result = assess(design, loads, on_progress=None if quiet else lambda m: console.print(f"hydrojam assess: {m}..."))
+        report = write_report(result, out)
     if not quiet:
         console.print(f"report: {report}", soft_wrap=True)
     v = result.values
@@ -931,6 +940,12 @@ def snapshot(
         raise InputError(f"{out}: {'not a folder' if out.exists() else 'no such folder'}")
     if dest.exists() and not dest.is_dir():
         raise InputError(f"--out: {dest} exists and is not a folder")
+    from hydrojam._io import FolderKindError, check_folder_kind
+
+    try:
+        check_folder_kind(dest, "snapshots")
+    except FolderKindError as err:
+        raise InputError(f"--out: {err}") from None
     console = Console(stderr=True)
     try:
         shots = write_snapshots(out, dest, on_run=lambda name, points: console.print(

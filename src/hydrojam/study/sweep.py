@@ -54,8 +54,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hydrojam._io import (FOLDER_LOCK, LockHeld, atomic_path, finite_number, finite_or_none, hold_lock, make_folder, read_json_dict,
-                          read_toml, write_text_atomic)
+from hydrojam._io import (FOLDER_LOCK, FolderKindError, LockHeld, atomic_path, check_folder_kind, finite_number,
+                          finite_or_none, hold_lock, make_folder, read_json_dict, read_toml, write_text_atomic)
 from hydrojam._validation import owner_model
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress, release_progress
 from hydrojam.actuator.design import Design, DesignError
@@ -609,6 +609,7 @@ def run_sweep(
     out = Path(out).absolute()
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"{out}: exists and is not a folder")
+    _check_kind(out)
     _check_same_study(out, study)
     if not run:
         _check_held_study(out, study)
@@ -633,6 +634,7 @@ def run_sweep(
             lock.enter_context(hold_lock(make_folder(out) / FOLDER_LOCK))
         except LockHeld as err:
             raise StudyError(str(err)) from None
+        _check_kind(out)  # again, under the lock
         records = _finished_records(out, groups)  # again: a run that held the lock may have finished some
         pending = [key for key in groups if key not in records]
         write_study(out / "study.toml", study)
@@ -721,6 +723,15 @@ def unfinished_text(running: RunningPoint | None, started: bool = False) -> str:
         return f"not finished: s = {running.s:.3f} reached" + (f" ({angle})" if angle else "")
     text = "not finished: releasing the stabilisation" + (f" (stabilised at {angle})" if angle else "")
     return text + ("" if running.release is None else f", {running.release.summary()}")
+
+
+def _check_kind(out: Path) -> None:
+    """StudyError when ``OUT`` holds another kind of output than a study's (a single run's, an
+    assessment's, one point of a study): the study's files would mix with it."""
+    try:
+        check_folder_kind(out, "study")
+    except FolderKindError as err:
+        raise StudyError(str(err)) from None
 
 
 def _check_same_study(out: Path, study: Study) -> None:
