@@ -39,33 +39,37 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import print_load, table  # noqa: E402
+from _trace import IterationTrace  # noqa: E402
 
 import hydrojam.actuator.simulate as simulate_module  # noqa: E402
 from hydrojam.actuator.design import apply_overrides, default_design, with_replicas  # noqa: E402
 from hydrojam.actuator.model import build_model  # noqa: E402
+from hydrojam.fem.path import ReleaseOptions  # noqa: E402
 
 DESIGNS = {"one_layer": ["particle_layers=1"], "default": [],
            "near_prepared": ["particle_layers=1", "mesh.size=4", "stimulus.mu=-0.0343", "stimulus.temperature=300"],
-           "default_3d": ["dimension=3", "mesh.size=4"]}
+           "default_3d": ["dimension=3", "mesh.size=4"],
+           "one_layer_3d": ["dimension=3", "particle_layers=1", "mesh.size=4"],
+           "proxy_3d": ["dimension=3", "particle_layers=3", "mesh.size=5"]}
 
-#: variant name -> (keyword arguments of simulate, keyword arguments of the release)
+#: variant name -> keyword arguments of simulate (``options`` replaces fields of ACTUATOR_PATH)
 VARIANTS = {
-    "main": ({}, {}),
-    "release_lower_after_easy_rounds": ({}, {"easy_round": 20}),
-    "release_lower_every_round": ({}, {"easy_round": None}),
-    "release_direct": ({}, {"direct": True, "easy_round": 20}),
-    "release_first_0.1": ({}, {"first_scale": 0.1, "easy_round": 20}),
-    "release_lower_100x": ({}, {"lower": 100.0, "easy_round": 20}),
-    "release_inexact": ({}, {"inexact": True}),
-    "release_inexact_keep": ({}, {"inexact": True, "keep_failed": True}),
-    "release_backoff": ({}, {"backoff_rounds": 4}),
-    "release_give_up_at_cap": ({}, {"beyond_cap": False}),
-    "stabilisation_0.001": ({"stabilisation": 1e-3}, {}),
-    "no_stabilisation": ({"stabilisation": 0.0}, {}),
-    "path_easy_60": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, easy_iterations=60)}, {}),
-    "path_ds_0.1_0.2": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, ds0=0.1, ds_max=0.2)}, {}),
-    "path_relax_damping": ({"options": dataclasses.replace(simulate_module.ACTUATOR_PATH, damping_relax_after=2)}, {}),
+    "main": {},
+    # the path before every state was an equilibrium: damped from the start, released once at s = 1
+    "stabilised_path": {"options": {"damping_start": 1.0, "extrapolate": False,
+                                    "release": ReleaseOptions(each_step=False)}},
+    "no_extrapolation": {"options": {"extrapolate": False}},
+    "damped_from_start": {"options": {"damping_start": 1.0}},
+    "no_stabilisation": {"stabilisation": 0.0},
+    "path_ds_0.1_0.2": {"options": {"ds0": 0.1, "ds_max": 0.2}},
 }
+
+
+def _simulate_kwargs(variant: str) -> dict:
+    kw = dict(VARIANTS[variant])
+    if "options" in kw:
+        kw["options"] = dataclasses.replace(simulate_module.ACTUATOR_PATH, **kw["options"])
+    return kw
 
 
 def jittered(model, seed: int, size: float = 1e-7):
@@ -78,17 +82,21 @@ def jittered(model, seed: int, size: float = 1e-7):
     return dataclasses.replace(model, path=dataclasses.replace(path, t_knots=t))
 
 
+def label_of(seed: int | None, replica: int | None) -> str:
+    """A run's label in the tables: "-", the seed, or "r<replica>"."""
+    return "-" if seed is None and replica is None else (f"r{replica}" if replica is not None else str(seed))
+
+
 def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tuple[str, ...] = (),
-        replica: int | None = None, count: int = 1) -> list[str]:
-    sim_kw, release_kw = VARIANTS[variant]
+        replica: int | None = None, count: int = 1, trace: str | None = None) -> list[str]:
+    sim_kw = _simulate_kwargs(variant)
     d = apply_overrides(default_design(), [*DESIGNS[design], *overrides])
     if replica is not None:
         d = with_replicas(d, count).replica(replica)
     model = build_model(d)
     if seed is not None:
         model = jittered(model, seed)
-    original, original_path = simulate_module._release, simulate_module.solve_path
-    simulate_module._release = functools.partial(original, **release_kw)
+    original_path = simulate_module.solve_path
     paths = []
 
     def solve_path(*args, **kwargs):
@@ -96,35 +104,47 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
         return paths[-1]
 
     simulate_module.solve_path = solve_path
+    tracer = IterationTrace() if trace else None
     try:
         t0 = time.perf_counter()
         calls = []
 
         def on_step(state):
             calls.append(state)
-            if steps:  # live, for the long runs (3D: most of an hour)
+            if tracer is not None:
+                tracer.step(state.s)
+            if steps:  # live, for the long runs
                 print(f"    {design} {variant}: s = {state.s:.4f}, {state.iterations} iterations, "
                       f"{time.perf_counter() - t0:.0f} s", flush=True)
 
+        if tracer is not None:
+            tracer.install()
         res = simulate_module.simulate(model, on_step=on_step, **sim_kw)
         wall = time.perf_counter() - t0
     finally:
-        simulate_module._release, simulate_module.solve_path = original, original_path
+        simulate_module.solve_path = original_path
+        if tracer is not None:
+            tracer.uninstall()
+    if tracer is not None:
+        name = f"{trace}-{design}-{variant}-{label_of(seed, replica)}.csv"
+        tracer.write(name)
+        print(tracer.summary(f"{design} {variant} {label_of(seed, replica)}") + f"\n  trace written to {name}", flush=True)
     m = res.metrics
     rounds = res.stabilisation.get("release_rounds", [])
-    release_its = sum(r["iterations"] for r in rounds)
+    history = paths[-1].history if paths else []
+    release_its = sum(r["iterations"] for r in rounds) + sum(h.release_iterations for h in history)
+    n_rounds = len(rounds) + sum(h.release_rounds for h in history)
     if len(calls) > 1 and calls[-1].index == calls[-2].index:
         calls.pop()  # the released final state replaces the path's last, stabilised one
     if steps:
-        history = paths[-1].history if paths else []
         print(f"  {design} {variant} seed {seed}: step iterations (@ damping scale, ! a failed attempt) "
               + " ".join(f"{h.iterations}@{h.damping if h.damping is not None else 0:g}{'!' * h.rejected}"
                          for h in history)
               + "; release rounds " + " ".join(f"{r['scale']:g}:{r['iterations']}{'' if r['converged'] else '!'}"
                                                for r in rounds), flush=True)
-    label = "-" if seed is None and replica is None else (f"r{replica}" if replica is not None else str(seed))
+    label = label_of(seed, replica)
     return [design, variant, label, str(res.newton_iterations - release_its),
-            str(release_its), str(len(rounds)), f"{wall:.1f}", str(m["stabilisation_released"]),
+            str(release_its), str(n_rounds), f"{wall:.1f}", str(m["stabilisation_released"]),
             f"{m['bending_angle_deg']:.2f}", f"({m['tip_dx_mm']:.1f}, {m['tip_dz_mm']:.1f})"]
 
 
@@ -138,11 +158,13 @@ def main(argv=None) -> int:
     ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="FIELD=VALUE",
                     help="design override for every run (repeatable)")
     ap.add_argument("--steps", action="store_true", help="print every load step's iterations")
+    ap.add_argument("--trace", metavar="PREFIX", help="write every Newton iteration to PREFIX-<design>-<variant>-<run>.csv "
+                    "and print where the iterations went")
     args = ap.parse_args(argv)
     print_load()
     if args.overrides:
         print("overrides: " + " ".join(args.overrides))
-    jobs = [(design, variant, seed, args.steps, tuple(args.overrides), rep, max(args.replicas, 1))
+    jobs = [(design, variant, seed, args.steps, tuple(args.overrides), rep, max(args.replicas, 1), args.trace)
             for variant in args.variant for design in args.design
             for seed in (args.seeds if not args.replicas else [None]) or [None]
             for rep in (range(args.replicas) if args.replicas else [None])]

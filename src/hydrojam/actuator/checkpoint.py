@@ -27,8 +27,9 @@ from hydrojam.fem.path import PathCheckpoint, StepRecord
 #: the checkpoint's file name in a run's output folder
 CHECKPOINT = "checkpoint.npz"
 
-#: the file's layout; another one is ignored (a run then starts from s = 0)
-FORMAT = 1
+#: the file's layout; another one is ignored (a run then starts from s = 0). 2: the path's
+#: states are equilibria (released at every step) and it keeps the state before the last one
+FORMAT = 2
 
 
 class CheckpointError(ValueError):
@@ -141,10 +142,14 @@ def save_checkpoint(path: str | Path, ck: RunCheckpoint) -> None:
         "energy_ratio": ck.energy_ratio,
         "resumed": list(ck.resumed),
     }
+    if ck.path.previous is not None:
+        meta["path"]["previous_ds"] = float(ck.path.previous[1])
     arrays = {"meta": np.array(json.dumps(meta, default=_plain)), "xs": np.asarray(ck.xs, dtype=float),
               "path_x": np.asarray(ck.path.x, dtype=float)}
     if ck.release is not None:
         arrays["release_x"] = np.asarray(ck.release.x, dtype=float)
+    if ck.path.previous is not None:
+        arrays["path_previous_x"] = np.asarray(ck.path.previous[0], dtype=float)
     for name, pattern in (("path", ck.path.solver_pattern),
                           ("release", None if ck.release is None else ck.release.solver_pattern)):
         if pattern is not None:
@@ -164,6 +169,7 @@ def load_checkpoint(path: str | Path, design, shape: tuple[int, int]) -> RunChec
             meta = json.loads(str(data["meta"]))
             xs, path_x = data["xs"], data["path_x"]
             release_x = data["release_x"] if "release_x" in data else None
+            previous_x = data["path_previous_x"] if "path_previous_x" in data else None
             patterns = {name: (data[f"{name}_indptr"], data[f"{name}_indices"]) if f"{name}_indptr" in data else None
                         for name in ("path", "release")}
     except FileNotFoundError:
@@ -186,7 +192,9 @@ def load_checkpoint(path: str | Path, design, shape: tuple[int, int]) -> RunChec
     path_ck = PathCheckpoint(path_x, float(p["s"]), float(p["ds"]), float(p["damping"]),
                              tuple(StepRecord(**h) for h in p["history"]), int(p["rejected"]),
                              Timings(**p["timings"]), patterns["path"],
-                             None if p.get("ds_cut") is None else float(p["ds_cut"]))
+                             None if p.get("ds_cut") is None else float(p["ds_cut"]),
+                             None if previous_x is None or previous_x.size != path_x.size
+                             else (previous_x, float(p["previous_ds"])))
     r = meta["release"]
     release = None if r is None else ReleaseCheckpoint(
         release_x, int(r["iterations"]), float(r["scale"]), bool(r["failed"]),

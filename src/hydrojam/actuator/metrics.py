@@ -122,6 +122,10 @@ HISTORY_FIELDS: tuple[Metric, ...] = (
     Metric("negative_eigenvalues", "-",
            "negative eigenvalues of the physical energy's Hessian at this state (0: stable; empty: not checked)",
            int, "step"),
+    Metric("residual_N", "N", "residual of the physics alone at this state, the stabilisation left out "
+           "(N/mm in 2D): at most tolerance_N at an equilibrium", float, "step"),
+    Metric("tolerance_N", "N", "the tolerance the residual is held to: rtol x the forces in play (N/mm in 2D)",
+           float, "step"),
 )
 
 _BY_NAME = {m.name: m for m in (*STATE_METRICS, *RUN_FIELDS)}

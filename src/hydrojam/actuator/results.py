@@ -127,7 +127,8 @@ def history_row(state: StepState) -> dict:
     m = state.metrics
     row = {"step": state.index, "s": state.s, "mu_kT": state.mu, "temperature_K": state.T, "time_s": state.time_s,
            "newton_iterations": state.iterations, "wall_time_s": state.wall_time_s,
-           "negative_eigenvalues": state.negative_eigenvalues}
+           "negative_eigenvalues": state.negative_eigenvalues, "residual_N": state.residual,
+           "tolerance_N": state.tolerance}
     row.update({x.name: m.get(x.name) for x in STATE_METRICS})
     safe = {k: finite_or_none(row.get(k)) for k in HISTORY_COLUMNS}
     return {k: ("" if v is None else v) for k, v in safe.items()}

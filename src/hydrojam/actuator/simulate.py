@@ -23,7 +23,8 @@ from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel,
 from hydrojam.actuator.stimulus import schedule_temperature
 from hydrojam.fem.linsolve import LinearSolver
 from hydrojam.fem.newton import NewtonOptions, NewtonStatus, Timings, minimize, negative_curvature
-from hydrojam.fem.path import PathCheckpoint, PathOptions, first_unstable_s, solve_path
+from hydrojam.fem.path import (PathCheckpoint, PathOptions, ReleaseState, first_unstable_s, physical_residual, release,
+                               solve_path)
 from hydrojam.fem.terms import TimedTerm, ViscousStabilisation, by_name, lumped_volumes
 
 #: viscous stabilisation c = STABILISATION x G_membrane / d [N/mm^3] (docs/actuator.md)
@@ -34,26 +35,15 @@ STABILISATION = 0.01
 #: A step of up to 30 iterations counts as easy (the next one grows): with the generic 6 the
 #: increment never grew again after one halving (19 layers: 0.003 for hundreds of steps).
 ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=30,
-                            newton=NewtonOptions(max_iter=200))
+                            newton=NewtonOptions(max_iter=200), damping_start=0.0,
+                            damping_relax_after=1)
 
 
-#: most proximal rounds of the release at s = 1: a long chamber with friction travels far from
-#: its stabilised state, and a cap it reaches reports a state of the damping, not an
-#: equilibrium (docs/actuator.md, "The release of the long chambers")
-RELEASE_ROUNDS = 240
 
 
-#: the highest damping scale of the release (x the path's): a round that fails there is not
-#: followed by a higher one (see ``_release``, ``beyond_cap``)
-RELEASE_CAP = 1e3
-
-#: after a failed round at the cap, the damping is lowered after this many x 2^(f-1) converged
-#: rounds in a row at its level, f the failed rounds so far (the ``backoff_rounds`` variant)
-CAP_BACKOFF_ROUNDS = 4
 
 
-#: the loosest Newton tolerance of an inexact release round (``_release(inexact=True)``, a variant)
-LOOSE_ROUND_RTOL = 1e-3
+
 
 
 #: load-path settings with a time-resolved stimulus: steps of at most 0.025 in s from the first
@@ -83,6 +73,11 @@ class StepState:
     """Negative eigenvalues of the physical Hessian at this state (the stabilisation left out;
     :attr:`hydrojam.fem.path.StepRecord.negative_eigenvalues`): 0 stable, > 0 the path is
     passing an instability here; None where not checked (s = 0) or not available."""
+    residual: float | None = None
+    """Residual of the physics alone at this state (the stabilisation left out) [N; N/mm in 2D]:
+    within ``tolerance`` at an equilibrium."""
+    tolerance: float | None = None
+    """The Newton tolerance the residual is held to (rtol x the forces in play) [N; N/mm in 2D]."""
 
 
 @dataclass
@@ -255,11 +250,15 @@ def simulate(
     problem = dataclasses.replace(base, terms=terms)
     states: list[StepState] = []
 
-    def record(s: float, x: np.ndarray, iterations: int, negative: int | None = None) -> None:
+    def record(s: float, x: np.ndarray, iterations: int, negative: int | None = None,
+               residual: tuple[float, float] | None = None) -> None:
         mu, T = model.stimulus(s)
+        if residual is None:  # the physics alone at x: every reported state is an equilibrium of it
+            residual = physical_residual(terms(s), x, problem.free_mask(), problem.force_scale, options.newton,
+                                         options.unphysical_terms)
         st = StepState(len(states), float(s), float(mu), float(T), np.array(x, dtype=float),
                        measure(model, x), int(iterations), time.perf_counter() - t_start, model.path.time(s),
-                       negative)
+                       negative, float(residual[0]), float(residual[1]))
         states.append(st)
         if on_step is not None:
             on_step(st)
@@ -296,8 +295,11 @@ def simulate(
             energies = model.solid.with_materials(model.materials_at(s)).block_energies(x)
             e_el = sum([energies[MEMBRANE], energies[STRAIN_LIMIT_LAYER]])  # the elastomers
             if e_el > 0:
-                ratio[0] = max(ratio[0], stab.energy(x) / e_el)
-        record(s, x, rec.iterations, rec.negative_eigenvalues)
+                held = rec.damped_energy if options.release.each_step else stab.energy(x)
+                ratio[0] = max(ratio[0], held / e_el)
+        released_here = stab is None or rec.release_rounds > 0 or options.release.each_step
+        record(s, x, rec.iterations, rec.negative_eigenvalues,
+               (rec.residual, rec.tolerance) if released_here and rec.tolerance is not None else None)
 
     def attempt(s, ds, res):
         if on_progress is not None:
@@ -307,10 +309,10 @@ def simulate(
                      resume=None if resume is None else resume.path, on_checkpoint=on_path_checkpoint)
     if not np.all(np.isfinite(res.x)):  # pragma: no cover - the solver never accepts such a state
         raise RuntimeError("the solver returned non-finite positions")
-    released = stab is None
+    released = stab is None or options.release.each_step
     newton_iterations = res.newton_iterations
     release_seconds, rounds = 0.0, []
-    if stab is not None and res.converged:
+    if stab is not None and res.converged and not options.release.each_step:
         before = resume.release if resume is not None else None
         t_release = time.perf_counter() - (0.0 if before is None else before.seconds)
 
@@ -351,127 +353,24 @@ def simulate(
                             res.rejected_steps, timings, stabilisation_info, resumed)
 
 
-def _backed_off(rounds, k: int | None) -> bool:
-    """With ``k``: whether the converged rounds since the last failed one (``rounds``: (scale,
-    iterations, converged)) number k 2^(f-1), f the failed rounds so far."""
-    if not k:
-        return False
-    failures = sum(1 for r in rounds if not r[2])
-    held = next((i for i, r in enumerate(reversed(rounds)) if not r[2]), len(rounds))
-    return failures > 0 and held >= k * 2 ** (failures - 1)
-
-
-def _past_cap(rounds, beyond_cap: bool) -> bool:
-    """Whether a round has failed at :data:`RELEASE_CAP` (``rounds``: (scale, iterations,
-    converged)) and the release goes on beyond it."""
-    return beyond_cap and any(not ok and sc >= RELEASE_CAP for sc, _, ok in rounds)
-
-
-def _release(problem, stab, x, options, terms, timings, max_rounds: int = RELEASE_ROUNDS, first_scale: float = 1.0,
-             easy_round: int | None = None, lower: float = 10.0, direct: bool = False, after_failure: int = 20,
-             resume: ReleaseCheckpoint | None = None, on_round: Callable[[ReleaseCheckpoint], None] | None = None,
-             inexact: bool = False, keep_failed: bool = False, backoff_rounds: int | None = None,
-             beyond_cap: bool = True):
-    """Take the stabilisation off at s = 1 by proximal rounds: minimise with the damping centred
-    on the last state (and lagged friction frozen there, as at a load step's start), again and
-    again, the damping (``first_scale`` x the path's at first) lowered ``lower``x after every
-    converged round (with ``easy_round``: only after a round of
-    at most that many Newton iterations; after a failed round, only after one of at most
-    ``after_failure``) and raised 10x after a failed one. ``direct``: first
-    minimise the physics alone (damping 0) from the stabilised state, and the rounds only if
-    that fails. The viscous force left at the end of a round is exactly the residual of the
-    physics alone, so the state is an equilibrium once that force is below the solver's
-    tolerance (rtol x the forces in play). Returns (x, Newton iterations, released, rounds): x
-    the centre the last round left (a converged round's state, or a kept failed round's),
-    released False if the rounds ran out first, rounds a list of (damping scale, Newton
-    iterations, converged).
-
-    Where the damping would have to exceed :data:`RELEASE_CAP` (a round failed there), the
-    release goes on (``beyond_cap``; without it, it gives up there, the rule before): a
-    round that failed by running out of iterations is kept as progress (its last iterate is
-    admissible and lower in energy), the damping stays at the cap, and from then on every such
-    failed round is kept and the damping is also lowered after :data:`CAP_BACKOFF_ROUNDS` 2^(f-1)
-    converged rounds in a row at its level (f: the failed rounds so far). Any other failure at
-    the cap (no admissible descent) still gives up. A release that never reaches the cap takes
-    the same rounds either way (docs/actuator.md, "Beyond the cap").
-    ``on_round(checkpoint)`` after every round (not the direct attempt) with what it takes to go
-    on from there; ``resume``: such a checkpoint to go on from (``x`` and ``first_scale`` unused).
-
-    Variants measured, not in use (docs/actuator.md, "Two release variants"): ``inexact``, a
-    round's Newton tolerance a tenth of the imbalance (viscous / in play) the last round left,
-    within [rtol, :data:`LOOSE_ROUND_RTOL`], released only after a round at rtol; ``keep_failed``,
-    a failed round's last state (admissible, lower in energy) is the next round's centre;
-    ``backoff_rounds`` k, after a failed round the damping is also lowered after k converged
-    rounds in a row at its level (easy or not), k doubling with every failed round (k 2^(f-1)
-    after f failures), so that a state that travels at a raised damping is not held there until
-    its rounds turn easy, and one that cannot take the lower damping costs about log2(rounds)
-    failed rounds. Counted from ``rounds``, so a resumed release goes on as in one go."""
-    free = problem.free_mask()
-    rtol = options.newton.rtol
+def _release(problem, stab, x, options: PathOptions, terms, timings: Timings,
+             resume: ReleaseCheckpoint | None = None, on_round: Callable[[ReleaseCheckpoint], None] | None = None):
+    """Take the stabilisation off at s = 1 (:func:`hydrojam.fem.path.release`, ``options.release``),
+    for a path that did not release it at every step. Returns (x, Newton iterations, released,
+    rounds); ``on_round(checkpoint)`` after every round, ``resume``: such a checkpoint."""
     solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: PARDISO's set-up costs 0.4 s
-    its, scale, rounds, failed = 0, first_scale * stab.scale, [], False
-    round_rtol = LOOSE_ROUND_RTOL if inexact else rtol
-    spent = Timings()  # the release's own work, kept in its checkpoints
+    state = None
     if resume is not None:
-        x, its, scale, failed, rounds = np.array(resume.x, dtype=float), resume.iterations, resume.scale, \
-            resume.failed, list(resume.rounds)
-        round_rtol = rtol if resume.round_rtol is None else resume.round_rtol
-        solver.restore_pattern(resume.solver_pattern)
-        direct = False
-        # a checkpoint from before the release's timings were kept: its iterations, times unknown
-        spent.add(resume.timings if resume.timings is not None else Timings(iterations=resume.iterations))
-        timings.add(spent)
-    start = len(rounds)
-    if direct:
-        stab.scale = 0.0
-        res = minimize(terms(1.0), x, free, problem.force_scale, options.newton, solver)
-        its += res.iterations
-        timings.add(res.timings)
-        spent.add(res.timings)
-        rounds.append((0.0, res.iterations, res.converged))
-        if res.converged:
-            return res.x, its, True, rounds
+        state = ReleaseState(resume.x, resume.iterations, resume.scale, resume.failed, resume.rounds,
+                             resume.solver_pattern,
+                             resume.timings if resume.timings is not None else Timings(iterations=resume.iterations))
 
-    def done_round() -> None:
+    def round_done(st: ReleaseState) -> None:
         if on_round is not None:
-            on_round(ReleaseCheckpoint(np.array(x, dtype=float), its, scale, failed, tuple(rounds), 0.0,
-                                       solver.pattern, round_rtol if inexact else None, dataclasses.replace(spent)))
+            on_round(ReleaseCheckpoint(st.x, st.iterations, st.scale, st.failed, st.rounds, 0.0, st.solver_pattern,
+                                       None, st.timings))
 
-    for _ in range(max_rounds - start):
-        stab.scale = scale
-        ts = terms(1.0)
-        for t in ts:  # each round is a step: the damping centred and friction frozen at its start
-            t.begin_step(x)
-        newton = options.newton if round_rtol == rtol else dataclasses.replace(options.newton, rtol=round_rtol)
-        res = minimize(ts, x, free, problem.force_scale, newton, solver)
-        its += res.iterations
-        timings.add(res.timings)
-        spent.add(res.timings)
-        rounds.append((scale, res.iterations, res.converged))
-        if not res.converged:
-            ran_out = res.status is NewtonStatus.MAX_ITERATIONS
-            if scale >= RELEASE_CAP and not (beyond_cap and ran_out):
-                break
-            if (keep_failed or _past_cap(rounds, beyond_cap)) and ran_out:
-                x = res.x
-            if scale < RELEASE_CAP:
-                scale *= 10.0
-            failed = True
-            done_round()
-            continue
-        x = res.x
-        viscous = float(np.linalg.norm(stab.gradient(x)[free]))
-        in_play = float(np.linalg.norm(by_name(ts)["elastic"].force_flux(x)[free]))
-        if viscous <= max(rtol * in_play, options.newton.residual_floor * problem.force_scale) and round_rtol <= rtol:
-            return x, its, True, rounds
-        if inexact:
-            round_rtol = min(LOOSE_ROUND_RTOL, max(rtol, 0.1 * viscous / max(in_play, 1e-300)))
-        # after a failed round, lower again only after an easy round: otherwise a state still
-        # travelling alternates between a round that converges and a lower one that fails
-        limit = easy_round if easy_round is not None else (after_failure if failed else None)
-        backoff = CAP_BACKOFF_ROUNDS if _past_cap(rounds, beyond_cap) else backoff_rounds
-        if limit is None or res.iterations <= limit or (failed and _backed_off(rounds, backoff)):
-            scale = max(scale / lower, 1e-8)
-            failed = False
-        done_round()
-    return x, its, False, rounds
+    rel = release(terms(1.0), stab, x, problem.free_mask(), problem.force_scale, options.newton, solver,
+                  options.release, 1.0, options.unphysical_terms, state, round_done)
+    timings.add(rel.timings)
+    return rel.x, rel.iterations, rel.released, rel.rounds

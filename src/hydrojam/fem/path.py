@@ -18,6 +18,42 @@ from hydrojam.fem.problem import Problem
 
 
 @dataclass(frozen=True)
+class ReleaseOptions:
+    """Taking a damped term (a viscous stabilisation, :attr:`PathOptions.damped_term`) off at a
+    state by proximal rounds (:func:`release`): minimise with the damping centred on the last
+    state and every lagged quantity (friction) frozen there, again and again, the damping lowered
+    ``lower``x after every converged round and raised ``growth``x after a failed one. The viscous
+    force left at the end of a round is exactly the residual of the physics alone, so the state
+    is an equilibrium once that force is within the Newton tolerance (rtol x the forces in play).
+    """
+
+    each_step: bool = True
+    """Release at every accepted load step, so that every state the path reports is an
+    equilibrium of the physics alone and the next step starts from one. False: only the caller
+    releases (at the end of the path), and the path's states are stabilised states."""
+    max_rounds: int = 240
+    """Most rounds of one release; a release that runs out is not released."""
+    lower: float = 10.0
+    """Divisor of the damping after a converged round."""
+    growth: float = 10.0
+    """Factor on the damping after a failed round (up to ``cap``)."""
+    easy_after_failure: int = 20
+    """After a failed round the damping is lowered again only after a round of at most this many
+    Newton iterations: a state still travelling would otherwise alternate between a round that
+    converges and a lower one that fails."""
+    cap: float = 1e3
+    """Highest damping, relative to the damped term's scale at the start of the path. A round that
+    runs out of iterations there is kept as progress (its last iterate is admissible and lower in
+    energy), and from then on the damping is also lowered after ``cap_backoff_rounds`` x 2^(f-1)
+    converged rounds in a row at its level (f: the failed rounds so far); any other failure there
+    (no admissible descent) ends the release, not released."""
+    cap_backoff_rounds: int = 4
+    """See ``cap``."""
+    floor: float = 1e-8
+    """Lowest damping, relative to the damped term's scale at the start of the path."""
+
+
+@dataclass(frozen=True)
 class PathOptions:
     """Adaptive load stepping in s: grow ``grow``x after easy steps (<= ``easy_iterations``),
     halve on failure (and grow back after it: ``recover``); below ``ds_min`` one last attempt
@@ -55,7 +91,18 @@ class PathOptions:
     easy step divides it again, down to where the path started. 1: off. A snap that the weak
     damping lets travel far within one step then travels in several damped steps."""
     max_damping: float = 100.0
-    """Largest scale of the damped term, relative to its scale at the start of the path."""
+    """Largest scale of the damped term, relative to the scale it was built with."""
+    damping_start: float = 1.0
+    """The damped term's scale where the path starts and to which easy steps lower it again,
+    relative to the scale it was built with. 0: every step is first tried undamped, and the
+    damping (the built scale, then ``damping_growth``x) comes in only for a step that fails
+    without it, as ABAQUS's adaptive automatic stabilisation."""
+    extrapolate: bool = True
+    """Start every step after the first from the linear extrapolation of the last increment (the
+    positions' change over the last accepted step, scaled to this one's ds; ABAQUS's default
+    predictor), shortened (1, 1/2, 1/4, 0) until admissible and collision-free like any step."""
+    release: ReleaseOptions = ReleaseOptions()
+    """How the damped term is taken off at every accepted step (:class:`ReleaseOptions`)."""
     damping_relax_after: int = 0
     """With N > 0, a raised damping is also divided by ``damping_growth`` after N accepted steps
     in a row at its level, easy or not (as :attr:`recover` for the increment); 0: only easy
@@ -87,6 +134,17 @@ class StepRecord:
     rejected: int = 0
     """Attempts at this step that failed before it was accepted (each raised the damping or cut
     the increment); 0 in a record written before it was kept."""
+    tolerance: float | None = None
+    """The residual tolerance [N] that ``residual`` is held to (rtol x the forces in play at the
+    state); None in a record written before it was kept."""
+    release_rounds: int = 0
+    """Proximal rounds that took the damped term off at this step (:func:`release`); their Newton
+    iterations are counted in ``iterations``."""
+    release_iterations: int = 0
+    """Newton iterations of those rounds (part of ``iterations``)."""
+    damped_energy: float = 0.0
+    """Energy [mJ] of the damped term at the stabilised state the step converged to, before its
+    release: what the stabilisation held back in the step."""
 
 
 @dataclass(frozen=True)
@@ -134,6 +192,9 @@ class PathCheckpoint:
     """The largest increment cut so far, to which :attr:`PathOptions.recover` grows back (0: none
     cut); None where unknown (a checkpoint written before it was kept): taken as the path's
     first increment ``ds0`` if any step was rejected, else 0."""
+    previous: tuple[np.ndarray, float] | None = None
+    """The accepted state before this one (flat positions [mm]) and the increment between them: the
+    extrapolation's (:attr:`PathOptions.extrapolate`); None at the first step or where unknown."""
 
 
 def _steps_at(history, damping: float) -> int:
@@ -157,6 +218,126 @@ def first_unstable_s(history) -> float | None:
         if h.negative_eigenvalues:
             return h.s
     return None
+
+
+@dataclass(frozen=True)
+class ReleaseState:
+    """A release between two rounds (what it takes to go on): the next round's centre x (n, d)
+    [mm], Newton iterations so far, the next round's damping ``scale`` (the term's own, absolute),
+    whether a round has failed since the damping was last lowered, the rounds so far as
+    (scale, iterations, converged), the linear solver's union pattern and the Newton work so far."""
+
+    x: np.ndarray
+    iterations: int
+    scale: float
+    failed: bool
+    rounds: tuple[tuple[float, int, bool], ...]
+    solver_pattern: tuple[np.ndarray, np.ndarray] | None = None
+    timings: Timings | None = None
+
+
+@dataclass(frozen=True)
+class ReleaseResult:
+    """Outcome of :func:`release`: the state x (n, d) [mm] (the last converged round's, or a kept
+    failed round's), Newton iterations of all rounds, whether the damping is off (``released``),
+    the rounds as (scale, iterations, converged), the physics' residual [N] at x and its
+    tolerance [N], and the Newton work."""
+
+    x: np.ndarray
+    iterations: int
+    released: bool
+    rounds: list[tuple[float, int, bool]]
+    residual: float
+    tolerance: float
+    timings: Timings
+
+
+def physical_residual(terms, x: np.ndarray, free: np.ndarray, force_scale: float, options: NewtonOptions,
+                      unphysical: tuple[str, ...] = ("stabilisation",)) -> tuple[float, float]:
+    """(residual, tolerance) [N] of the physics alone at x (n, d) [mm]: the norm over the free
+    DOFs of the summed gradients of ``terms`` whose names are not in ``unphysical``, and the Newton
+    tolerance for it (rtol x the largest such term's forces in play, floored at round-off)."""
+    xs = np.asarray(x, dtype=float)
+    fidx = np.flatnonzero(free)
+    physical = [t for t in terms if t.name not in unphysical]
+    grads = [t.gradient(xs) for t in physical]
+    in_play = max(float(np.linalg.norm(t.force_flux(xs, g)[fidx])) for t, g in zip(physical, grads))
+    return (float(np.linalg.norm(sum(grads)[fidx])),
+            max(options.rtol * in_play, options.residual_floor * force_scale))
+
+
+def _held_since_failure(rounds, k: int) -> bool:
+    """Whether the converged rounds since the last failed one (``rounds``: (scale, iterations,
+    converged)) number k 2^(f-1), f the failed rounds so far."""
+    failures = sum(1 for r in rounds if not r[2])
+    held = next((i for i, r in enumerate(reversed(rounds)) if not r[2]), len(rounds))
+    return failures > 0 and held >= k * 2 ** (failures - 1)
+
+
+def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, newton: NewtonOptions,
+            solver: LinearSolver, options: ReleaseOptions = ReleaseOptions(), base_scale: float = 1.0,
+            unphysical: tuple[str, ...] = ("stabilisation",), resume: ReleaseState | None = None,
+            on_round: Callable[[ReleaseState], None] | None = None) -> ReleaseResult:
+    """Take the damped term ``damped`` (one of ``terms``, with a ``scale``) off at positions x
+    (n, d) [mm] by proximal rounds (:class:`ReleaseOptions`), from its present scale.
+
+    Before the first round the state is tested as it is: a step that barely moved is released
+    without a round. ``base_scale``: the damped term's scale at the start of the path, to which
+    ``options.cap`` and ``options.floor`` are relative. The damped term's scale is left where the
+    last round set it. ``on_round(state)`` after every round that the release goes on from;
+    ``resume``: such a state to go on from (``x`` unused)."""
+    shape = np.shape(x)
+    its, scale, rounds, failed = 0, float(damped.scale), [], False
+    spent = Timings()
+    x = np.array(x, dtype=float)
+    if resume is not None:
+        x, its, scale, failed, rounds = (np.array(resume.x, dtype=float).reshape(shape), resume.iterations,
+                                         resume.scale, resume.failed, list(resume.rounds))
+        solver.restore_pattern(resume.solver_pattern)
+        if resume.timings is not None:
+            spent.add(resume.timings)
+    cap = options.cap * base_scale
+
+    def result(ok):
+        r, tol = physical_residual(terms, x, free, force_scale, newton, unphysical)
+        return ReleaseResult(x, its, ok, rounds, r, tol, spent)
+
+    def viscous_is_off() -> bool:
+        viscous = float(np.linalg.norm(damped.gradient(x)[free]))
+        _, tol = physical_residual(terms, x, free, force_scale, newton, unphysical)
+        return viscous <= tol
+
+    if resume is None and viscous_is_off():
+        return result(True)
+    for _ in range(options.max_rounds - len(rounds)):
+        damped.scale = scale
+        for t in terms:  # each round is a step: the damping centred and lagged quantities frozen at its start
+            t.begin_step(x)
+        res = minimize(terms, x, free, force_scale, newton, solver)
+        its += res.iterations
+        spent.add(res.timings)
+        rounds.append((scale, res.iterations, res.converged))
+        past_cap = any(not ok and sc >= cap * (1 - 1e-12) for sc, _, ok in rounds)
+        if not res.converged:
+            ran_out = res.status is NewtonStatus.MAX_ITERATIONS
+            if scale >= cap * (1 - 1e-12) and not ran_out:
+                return result(False)
+            if past_cap and ran_out:
+                x = res.x
+            scale = min(scale * options.growth, cap)
+            failed = True
+        else:
+            x = res.x
+            if viscous_is_off():
+                return result(True)
+            if (not failed or res.iterations <= options.easy_after_failure
+                    or (past_cap and _held_since_failure(rounds, options.cap_backoff_rounds))):
+                scale = max(scale / options.lower, options.floor * base_scale)
+                failed = False
+        if on_round is not None:
+            on_round(ReleaseState(np.array(x, dtype=float), its, scale, failed, tuple(rounds), solver.pattern,
+                                  dataclasses.replace(spent)))
+    return result(False)
 
 
 def _predictor(problem, terms, x, x_bc, free, solver):
@@ -186,6 +367,27 @@ def _predictor(problem, terms, x, x_bc, free, solver):
         if np.isfinite(sum_energy(terms, trial.reshape(shape))):
             return trial
     return None
+
+
+def _extrapolated(terms, x, x_start, previous, ds, free, shape):
+    """``x_start`` (flat [mm]) moved on the free DOFs by the last accepted increment (x - x_prev
+    over ds_prev, ``previous`` = (x_prev, ds_prev)) scaled to ``ds``, shortened (1, 1/2, 1/4)
+    until every term admits it and caps no part of it (contact CCD); ``x_start`` if none does."""
+    x_prev, ds_prev = previous
+    if ds_prev <= 0:
+        return x_start
+    delta = np.where(free, (x - np.asarray(x_prev).ravel()) * (ds / ds_prev), 0.0)
+    if not np.any(delta):
+        return x_start
+    xs = x_start.reshape(shape)
+    for scale in (1.0, 0.5, 0.25):
+        step = (scale * delta).reshape(shape)
+        if min([1.0] + [t.max_step(xs, step) for t in terms]) < 1.0:
+            continue
+        trial = x_start + scale * delta
+        if np.isfinite(sum_energy(terms, trial.reshape(shape))):
+            return trial
+    return x_start
 
 
 def solve_path(
@@ -225,11 +427,14 @@ def solve_path(
     history: list[StepRecord] = []
     # equilibrate at s = 0 first (a no-op for a stress-free reference)
     s, ds, rejected, ds_cut = 0.0, options.ds0, 0, 0.0
+    previous: tuple[np.ndarray, float] | None = None  # the last accepted state but one, and ds since
     terms0 = problem.terms(0.0)
     damped = next((t for t in terms0 if t.name == options.damped_term), None)
     base = getattr(damped, "scale", None)
     if not base:  # no such term, or one switched off: nothing to adapt
         damped = None
+    else:
+        damped.scale = base * options.damping_start
     if resume is None:
         for t in terms0:  # nothing lagged (friction) survives from an earlier path on the same terms
             t.begin_step(x.reshape(shape))
@@ -241,6 +446,7 @@ def solve_path(
         x = res0.x.ravel().copy()
     else:
         x = np.asarray(resume.x, dtype=float).ravel().copy()
+        previous = resume.previous
         s, ds, rejected = float(resume.s), float(resume.ds), int(resume.rejected)
         ds_cut = float(resume.ds_cut) if resume.ds_cut is not None else (options.ds0 if rejected else 0.0)
         history.extend(resume.history)
@@ -260,6 +466,8 @@ def solve_path(
         for t in terms:  # lagged quantities (friction, stabilisation) freeze at the start of the step
             t.begin_step(x.reshape(shape))
         x_start = _predictor(problem, terms, x, x_bc, free, solver)
+        if x_start is not None and previous is not None and options.extrapolate:
+            x_start = _extrapolated(terms, x, x_start, previous, ds, free, shape)
         if x_start is None:
             res = NewtonResult(x.reshape(shape), NewtonStatus.INADMISSIBLE_START, 0, np.inf, np.inf,
                                "the prescribed displacement increment is not admissible", [], Timings())
@@ -268,39 +476,72 @@ def solve_path(
         tm.add(res.timings)
         if on_attempt is not None:
             on_attempt(s_try, ds, res)
-        if res.converged:
+        rel = None
+        damped_energy = 0.0 if damped is None or not res.converged else damped.energy(res.x)
+        if res.converged and damped is not None and options.release.each_step:
+            path_scale = damped.scale
+            rel = release(terms, damped, res.x, free, problem.force_scale, options.newton, solver, options.release,
+                          base, options.unphysical_terms)
+            tm.add(rel.timings)
+            damped.scale = path_scale
+        if res.converged and (rel is None or rel.released):
             newton, last_resort = options.newton, False
             s = s_try
-            x = res.x.ravel().copy()
+            x_new = res.x if rel is None else rel.x
+            previous = (x, ds)
+            x = x_new.ravel().copy()
             negative = None
             if checker is not None:
                 physical = [t for t in terms if t.name not in options.unphysical_terms]
-                negative = negative_curvature(physical, res.x, free, checker, options.newton)
-            rec = StepRecord(s, ds, res.iterations, res.residual, res.energy, time.perf_counter() - t0, negative,
-                             None if damped is None else damped.scale / base, failed_here)
+                negative = negative_curvature(physical, x_new, free, checker, options.newton)
+            its = res.iterations + (0 if rel is None else rel.iterations)
+            if rel is None:
+                residual, tolerance = physical_residual(terms, x_new, free, problem.force_scale, options.newton,
+                                                        options.unphysical_terms if damped is None else ())
+                if damped is not None:  # a stabilised state: its residual includes the viscous force
+                    residual = res.residual
+            else:
+                residual, tolerance = rel.residual, rel.tolerance
+            rec = StepRecord(s, ds, its, residual, res.energy if rel is None else sum_energy(terms, x_new),
+                             time.perf_counter() - t0, negative, None if damped is None else damped.scale / base,
+                             failed_here, tolerance, 0 if rel is None else len(rel.rounds),
+                             0 if rel is None else rel.iterations, damped_energy)
             failed_here = 0
             history.append(rec)
             if callback is not None:
-                callback(s, res.x, rec)
-            easy = res.iterations <= options.easy_iterations
+                callback(s, x_new, rec)
+            easy = its <= options.easy_iterations
             if easy:
                 ds = min(ds * options.grow, options.ds_max)
             elif options.recover and ds < ds_cut:
                 ds = min(ds * options.grow, ds_cut)
-            if damped is not None and damped.scale > base and (
+            lowest = None if damped is None else base * options.damping_start
+            if damped is not None and damped.scale > lowest and (
                     easy or (options.damping_relax_after > 0
                              and _steps_at(history, damped.scale / base) >= options.damping_relax_after)):
-                damped.scale = max(damped.scale / options.damping_growth, base)
+                damped.scale = (lowest if damped.scale <= base * (1 + 1e-12)
+                                else max(damped.scale / options.damping_growth, base))
             if on_checkpoint is not None:
                 on_checkpoint(PathCheckpoint(x.copy(), s, ds, 1.0 if damped is None else damped.scale / base,
                                              tuple(history), rejected, dataclasses.replace(tm), solver.pattern,
-                                             ds_cut))
+                                             ds_cut, previous))
         else:
             rejected += 1
             failed_here += 1
+            if rel is not None:  # the step converged stabilised but could not be released: a shorter one
+                res = dataclasses.replace(res, status=NewtonStatus.MAX_ITERATIONS, message=(
+                    f"the stabilisation could not be released in {len(rel.rounds)} rounds"))
+                ds_cut = max(ds_cut, ds)
+                ds *= 0.5
+                if ds < options.ds_min:
+                    message = (f"load step failed at s = {s_try:.6g} (increment {2 * ds:.3g} < minimum "
+                               f"{options.ds_min:g}): {res.message}; last converged state kept at s = {s:.6g}")
+                    return PathResult(x.reshape(shape), s, False, message, history, tm, rejected)
+                continue
             if (damped is not None and res.status is not NewtonStatus.INADMISSIBLE_START and options.damping_growth > 1
                     and damped.scale * options.damping_growth <= options.max_damping * base * (1 + 1e-12)):
-                damped.scale *= options.damping_growth  # retry the same increment, more damped
+                # retry the same increment, more damped (an undamped attempt: at the built damping)
+                damped.scale = base if damped.scale < base else damped.scale * options.damping_growth
                 continue
             ds_cut = max(ds_cut, ds)
             ds *= 0.5

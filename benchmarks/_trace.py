@@ -1,0 +1,129 @@
+"""A per-iteration trace of Newton (``benchmarks/path.py --trace``), read from outside: it wraps
+the helpers of :func:`hydrojam.fem.newton.minimize` (the direction, the line search, the
+Marquardt update) and the linear solver, and records for every iteration
+
+- ``step``: the accepted load steps before it (the iteration belongs to the next one; a
+  step's release rounds and its rejected attempts are counted in it too),
+- ``residual`` [N] at the iterate, ``tau`` (the Marquardt damping used, relative to diag|H|),
+- ``cap``: the step cap of the terms (contact CCD; 1 = none), ``alpha``: the accepted step length,
+- ``trials``: energy evaluations of the line search, ``dE`` [mJ]: the energy change,
+- ``step_max`` [mm]: the largest nodal move, ``stabilisation``: the damped term's scale (0 without),
+- ``pairs``: active contact collisions at the iterate, ``analysis``: whether the linear solve
+  analysed a new sparsity pattern.
+
+The summary says where the iterations went: capped steps (TOI locking), line-search cuts, and
+the tail (iterations within 100x of the tolerance's residual, chasing near-neutral modes).
+"""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+
+import hydrojam.fem.newton as newton
+from hydrojam.fem.linsolve import LinearSolver
+
+FIELDS = ("step", "residual", "tau", "cap", "alpha", "trials", "dE", "step_max", "stabilisation", "pairs",
+          "analysis")
+
+
+class IterationTrace:
+    """Records every Newton iteration while installed (see the module docstring)."""
+
+    def __init__(self):
+        self.rows: list[dict] = []
+        self._row: dict = {}
+        self._steps = 0
+        self._saved = None
+
+    def step(self, s: float) -> None:
+        """An accepted state was reported (s = 0 included): later iterations belong to the next step."""
+        self._steps += 1 if s > 0 else 0
+
+    def install(self) -> None:
+        """Wrap newton's helpers and the linear solver (undone by :meth:`uninstall`)."""
+        direction, line_search, update, solve = (newton._direction, newton._line_search, newton._marquardt_update,
+                                                 LinearSolver.solve)
+        self._saved = direction, line_search, update, solve
+        row = self._row
+
+        def traced_direction(terms, xs, hessians, Hff, hdiag, g, r, lm, *args, **kwargs):
+            row.clear()
+            row.update(step=self._steps, residual=r, analysis=0, trials=0)
+            stab = next((t for t in terms if t.name == "stabilisation"), None)
+            row["stabilisation"] = 0.0 if stab is None else float(getattr(stab, "scale", 0.0))
+            contact = next((t for t in terms if t.name == "contact"), None)
+            inner = getattr(contact, "term", contact)
+            if inner is not None and hasattr(inner, "_collisions"):
+                row["pairs"] = len(inner._collisions(xs)[1])
+            dx, slope, tau = direction(terms, xs, hessians, Hff, hdiag, g, r, lm, *args, **kwargs)
+            row["tau"] = tau
+            return dx, slope, tau
+
+        def traced_line_search(terms, x, E, step, slope, shape, alpha, options):
+            row["cap"] = alpha
+            a = alpha
+            trials = 0
+            while a >= options.min_alpha:  # the trials the line search makes (its own loop, counted)
+                trials += 1
+                xn = x + a * step
+                En = newton.sum_energy(terms, xn.reshape(shape))
+                if np.isfinite(En) and En <= E + options.armijo * a * slope + options.energy_slack * abs(E):
+                    break
+                a *= options.backtrack
+            out = line_search(terms, x, E, step, slope, shape, alpha, options)
+            row["trials"] = trials
+            row["dE"] = out[2] - E
+            row["step_max"] = float(np.abs(out[0] * step).max())
+            return out
+
+        def traced_update(lm, alpha, options):
+            row.setdefault("cap", 1.0)
+            row["alpha"] = alpha
+            self.rows.append({k: row.get(k, "") for k in FIELDS})
+            return update(lm, alpha, options)
+
+        def traced_solve(solver, K, b):
+            before = solver.analyses
+            out = solve(solver, K, b)
+            row["analysis"] = row.get("analysis", 0) + (solver.analyses - before)
+            return out
+
+        newton._direction, newton._line_search, newton._marquardt_update = (traced_direction, traced_line_search,
+                                                                            traced_update)
+        LinearSolver.solve = traced_solve
+
+    def uninstall(self) -> None:
+        """Put newton's helpers and the linear solver back."""
+        if self._saved is not None:
+            newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve = self._saved
+            self._saved = None
+
+    def write(self, path: str) -> None:
+        """The rows as CSV."""
+        with open(path, "w", newline="") as f:
+            w = csv.DictWriter(f, FIELDS)
+            w.writeheader()
+            w.writerows(self.rows)
+
+    def summary(self, label: str) -> str:
+        """Where the iterations went, in a few lines."""
+        if not self.rows:
+            return f"  {label}: no iterations traced"
+        cap = np.array([r["cap"] for r in self.rows], dtype=float)
+        alpha = np.array([r["alpha"] for r in self.rows], dtype=float)
+        res = np.array([r["residual"] for r in self.rows], dtype=float)
+        step = np.array([r["step"] for r in self.rows])
+        tail = 0
+        for k in np.unique(step):  # within a step: iterations whose residual is within 100x of the step's last
+            rk = res[step == k]
+            tail += int(np.sum(rk <= 100 * rk.min()))
+        n = len(self.rows)
+        analyses = sum(int(r["analysis"] or 0) for r in self.rows)
+        return (f"  {label}: {n} iterations over {len(np.unique(step))} steps; CCD-capped {np.mean(cap < 1):.0%} "
+                f"(median cap {np.median(cap[cap < 1]) if np.any(cap < 1) else 1:.2f}); line search cut "
+                f"{np.mean(alpha < cap):.0%}; full steps {np.mean(alpha == 1):.0%}; median step length "
+                f"{np.median(alpha):.2f}; in the tail (residual within 100x of the step's lowest) {tail / n:.0%}; "
+                f"damped {np.mean([float(r['stabilisation'] or 0) > 0 for r in self.rows]):.0%}; "
+                f"new patterns {analyses / n:.0%} of iterations")

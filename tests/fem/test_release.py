@@ -1,0 +1,146 @@
+"""The release of a damped term by proximal rounds (hydrojam.fem.path.release), on a stand-in whose
+rounds are exact proximal steps of a spring: the control (when the damping is lowered, raised,
+held at its cap), resumption from any round, and the test before the first round."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import hydrojam.fem.path as path
+from hydrojam.fem.linsolve import LinearSolver
+from hydrojam.fem.newton import NewtonOptions, NewtonResult, NewtonStatus, Timings
+from hydrojam.fem.path import ReleaseOptions, release
+from hydrojam.fem.terms import EnergyTerm, ViscousStabilisation
+
+_TARGET = np.array([[1.0, 0.0]])  # the stand-in's equilibrium x* [mm]
+
+
+class _Spring(EnergyTerm):
+    """k/2 |x - x*|^2 with k = 1 N/mm and 1 N per DOF of forces in play."""
+
+    name = "elastic"
+
+    def energy(self, x):
+        return 0.5 * float(np.sum((np.ravel(x) - _TARGET.ravel()) ** 2))
+
+    def gradient(self, x):
+        return np.ravel(x) - _TARGET.ravel()
+
+    def hessian(self, x, project=False):
+        return sp.identity(np.size(x), format="csr")
+
+    def force_flux(self, x, gradient=None):
+        return np.ones(np.size(x))
+
+
+def _stand_in(monkeypatch, fails=None, easy=True):
+    """Rounds are exact proximal steps x <- (x* + c x)/(1 + c) at damping scale c, of 30 Newton
+    iterations unless the move is below 1e-3 mm (then 5: easy; never with ``easy`` False). Round n
+    (from 0) fails with the status ``fails(c, n)`` returns (None: converges); one that runs out of
+    iterations leaves its last iterate halfway to the proximal step, any other failure the start.
+    Returns (terms, stab)."""
+    stab = ViscousStabilisation(np.ones(1), 1.0, 2)
+    count = [0]
+
+    def fake_minimize(terms, x, free, force_scale, options, solver):
+        x = np.asarray(x, dtype=float)
+        n, count[0] = count[0], count[0] + 1
+        new = (_TARGET + stab.scale * x) / (1 + stab.scale)
+        status = None if fails is None else fails(stab.scale, n)
+        if status is not None:
+            last = x + 0.5 * (new - x) if status is NewtonStatus.MAX_ITERATIONS else x
+            return NewtonResult(last, status, 200, 1.0, 0.0, "", [], Timings())
+        its = 30 if np.abs(new - x).max() > 1e-3 or not easy else 5
+        return NewtonResult(new, NewtonStatus.CONVERGED, its, 0.0, 0.0, "", [], Timings())
+
+    monkeypatch.setattr(path, "minimize", fake_minimize)
+    return [_Spring(), stab], stab
+
+
+def _release(terms, stab, scale=1.0, x=None, moved=True, **kw):
+    """One release from x (default: 0, 1 mm from x*), the damping at ``scale`` and centred 0.5 mm
+    behind x (``moved``: a step that travelled) or on x; at most 80 rounds."""
+    stab.scale = scale
+    x0 = np.zeros((1, 2)) if x is None else x
+    stab.begin_step(x0 - 0.5 if moved else x0)
+    opts = ReleaseOptions(max_rounds=kw.pop("max_rounds", 80))
+    return release(terms, stab, x0, np.ones(2, dtype=bool), 1.0, NewtonOptions(), LinearSolver("scipy"), opts,
+                   **kw)
+
+
+def test_a_state_without_viscous_force_is_released_without_a_round(monkeypatch):
+    """At a state where the damping pulls with no force (an undamped step, or one that did not
+    move) the release takes no round and leaves the state as it is: the step's own convergence
+    made it an equilibrium of the other terms."""
+    terms, stab = _stand_in(monkeypatch)
+    out = _release(terms, stab, x=np.zeros((1, 2)), moved=False)
+    assert out.released and out.rounds == [] and out.iterations == 0
+    assert np.array_equal(out.x, np.zeros((1, 2)))
+
+
+def test_the_release_lowers_the_damping_after_a_failure_only_after_an_easy_round(monkeypatch):
+    """Rounds at scale >= 1 converge, each halfway to x* (30 iterations, then 5 once the move is
+    small); rounds below 1 fail. After the first failure the scale stays at 1 until a round is
+    easy (<= 20 iterations), instead of trying 0.1 after every converged round; the state is
+    released once the viscous force is within the tolerance (rtol x 1 N), so x is within the
+    spring's compliance times it of x*."""
+    fails = lambda c, n: NewtonStatus.MAX_ITERATIONS if c < 1 else None  # noqa: E731
+    terms, stab = _stand_in(monkeypatch, fails)
+    out = _release(terms, stab)
+    scales = [r[0] for r in out.rounds]
+    assert scales[:2] == [1.0, 0.1] and not out.rounds[1][2]
+    first_easy = next(i for i, r in enumerate(out.rounds) if r[2] and r[1] <= 20)
+    assert first_easy > 3 and all(sc == 1.0 for sc in scales[2:first_easy + 1])
+    for i in range(2, len(out.rounds) - 1):
+        if scales[i + 1] < scales[i]:
+            assert out.rounds[i][2] and out.rounds[i][1] <= 20
+    tol = NewtonOptions().rtol
+    assert out.released and np.abs(out.x - _TARGET).max() <= 10 * tol
+    assert out.iterations == sum(r[1] for r in out.rounds)
+
+
+def _capped(status):
+    """Round 0 (at 100x) fails; rounds at the cap (1000x) converge, never easy; round 4 fails with
+    ``status``."""
+    return lambda scale, n: (NewtonStatus.MAX_ITERATIONS if n == 0 else status if n == 4 else None)
+
+
+def test_the_release_goes_on_where_the_damping_reaches_its_cap(monkeypatch):
+    """A round that runs out of iterations at the cap (1000x) is kept as progress: the damping
+    stays there, its last iterate is the next centre, and the damping is lowered after 4 x 2^(f-1)
+    converged rounds (f = 2 failed rounds: 8); the state is then released at x*."""
+    terms, stab = _stand_in(monkeypatch, _capped(NewtonStatus.MAX_ITERATIONS), easy=False)
+    out = _release(terms, stab, 100.0)
+    scales = [r[0] for r in out.rounds]
+    assert scales[:5] == [100.0] + [1000.0] * 4 and not out.rounds[4][2]
+    assert scales[5:13] == [1000.0] * 8 and all(r[2] for r in out.rounds[5:13])
+    assert scales[13] == pytest.approx(100.0)
+    assert out.released and np.allclose(out.x, _TARGET, atol=1e-5)
+
+
+def test_a_failure_at_the_cap_without_descent_ends_the_release(monkeypatch):
+    """Only a round that ran out of iterations is progress; one with no admissible descent at the
+    cap would fail again from the same centre: not released, the last converged round's state."""
+    terms, stab = _stand_in(monkeypatch, _capped(NewtonStatus.LINE_SEARCH_FAILED), easy=False)
+    out = _release(terms, stab, 100.0)
+    assert not out.released and len(out.rounds) == 5
+    x3 = np.zeros((1, 2))
+    for c in (1000.0, 1000.0, 1000.0):  # rounds 1-3 converged from x = 0 (round 0 left the start)
+        x3 = (_TARGET + c * x3) / (1 + c)
+    assert np.allclose(out.x, x3, rtol=0, atol=1e-12)
+
+
+def test_a_release_resumed_from_any_round_goes_on_as_in_one_go(monkeypatch):
+    """Everything the control reads is in the state passed to ``on_round``: resumed after any
+    round, the release takes the same rounds to the same state."""
+    saved = []
+    fails = _capped(NewtonStatus.MAX_ITERATIONS)
+    terms, stab = _stand_in(monkeypatch, fails, easy=False)
+    whole = _release(terms, stab, 100.0, on_round=saved.append)
+    assert whole.released and len(saved) == len(whole.rounds) - 1
+    for ck in saved:
+        n0 = len(ck.rounds)
+        terms, stab = _stand_in(monkeypatch, lambda c, n: fails(c, n + n0), easy=False)
+        again = _release(terms, stab, 100.0, resume=ck)
+        assert again.rounds == whole.rounds and np.array_equal(again.x, whole.x)
+        assert again.iterations == whole.iterations
