@@ -31,7 +31,7 @@ from hydrojam.actuator.metrics import (
     polygon_area,
     tip_displacement,
 )
-from hydrojam.fem.solver import Problem, fixed
+from hydrojam.fem.problem import Problem, fixed
 from hydrojam.actuator.stimulus import (
     KineticVolumes,
     StimulusPath,
