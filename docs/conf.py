@@ -50,3 +50,20 @@ html_theme_options = {
     "sidebar_width": "240px",
 }
 html_sidebars = {"**": ["about.html", "navigation.html", "searchbox.html"]}
+
+
+# The docstrings are plain text that numpydoc structures: |x| is a magnitude, never a substitution,
+# and a lone * (ABAQUS's *STATIC) is not the start of an emphasis. Escape both before numpydoc
+# (priority 500) and docutils read them.
+def _plain_text_marks(app, what, name, obj, options, lines):
+    import re
+
+    for i, line in enumerate(lines):
+        line = line.replace("|", "\\|")
+        if len(re.findall(r"(?<![*\\])\*(?!\*)", line)) % 2:
+            line = re.sub(r"(?<![*\\])\*(?!\*)", r"\\*", line)
+        lines[i] = line
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _plain_text_marks, priority=400)
