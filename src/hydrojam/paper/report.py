@@ -199,8 +199,8 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
         L += [f"**Each point is one run: one sample of a spread.** A column of slippery particles has many "
               f"equilibria and round-off picks one, so one run's trend can reverse between neighbouring points, "
               f"and the verdicts below are those of these samples. `{reproduce_command(quick, dim, 4)} -o {out}` "
-              "runs 4 replicas of every point (reusing these runs) and decides a statement only beyond their "
-              "spread (docs/replicas.md).", ""]
+              "runs 4 replicas of every point (reusing these runs; `--sweep NAME` for some sweeps only) and decides a "
+              "statement only beyond their spread (docs/replicas.md).", ""]
     L += ["## What was run", ""]
     L += [f"- Study: **{'quick' if quick else 'full'}{', 3D' if dim == 3 else ''}** "
           f"(`{command}`), hydrojam {__version__}.",
