@@ -31,7 +31,9 @@ myst_heading_anchors = 4
 myst_enable_extensions = ["dollarmath", "colon_fence"]
 
 # autodoc + numpydoc: document what each package's __all__ names, in source order
-autodoc_default_options = {"members": True, "member-order": "bysource", "show-inheritance": False}
+autodoc_default_options = {"members": True, "member-order": "bysource",
+                           # pydantic's class attributes are not hydrojam's API
+                           "exclude-members": "model_config, model_fields, model_computed_fields"}
 autodoc_typehints = "none"
 autodoc_preserve_defaults = True
 numpydoc_show_class_members = False
