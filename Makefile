@@ -1,11 +1,11 @@
-# The two commands of the README. Both bootstrap .venv on a fresh machine first.
+# The commands of the README. Both bootstrap .venv on a fresh machine first.
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.hydrojam-installed
 DEMO_OUT ?= demo-out
 
-.PHONY: demo test bench clean
+.PHONY: demo test docs bench clean
 
 $(STAMP): pyproject.toml tools/bootstrap.sh
 	PYTHON=$(PYTHON) bash tools/bootstrap.sh $(VENV)
@@ -25,9 +25,14 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -n auto
 
+# the documentation site (Sphinx, MyST pages, API reference from the docstrings), warnings as errors
+docs: $(STAMP)
+	$(BIN)/sphinx-build -W --keep-going -q -b html docs docs/_build/html
+	@echo "site: docs/_build/html/index.html"
+
 bench: $(STAMP)
 	$(BIN)/python benchmarks/fe_core.py
 	$(BIN)/python benchmarks/actuator.py
 
 clean:
-	rm -rf $(VENV) $(DEMO_OUT) build src/*.egg-info
+	rm -rf $(VENV) $(DEMO_OUT) build docs/_build src/*.egg-info

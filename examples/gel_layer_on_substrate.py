@@ -15,10 +15,7 @@ import sys
 from pathlib import Path
 
 from hydrojam import Hydrogel, HydrogelParams, constrained_swelling
-from hydrojam.fem.assembly import Block, Solid
-from hydrojam.fem.elements import element_for_meshio_type
-from hydrojam.fem.meshing import rectangle
-from hydrojam.fem.solver import Problem, fixed, solve_path
+from hydrojam.fem import Block, Problem, Solid, element_for_meshio_type, fixed, rectangle, solve_path
 
 T_WATER = 275.0  # K
 WIDTH, THICKNESS, MESH_SIZE = 4.0, 1.0, 0.3  # mm

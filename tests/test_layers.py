@@ -130,18 +130,18 @@ def test_light_entry_points_do_not_load_gmsh_or_ipctk(code):
     assert out.stdout.strip().splitlines()[-1] == "[]", out.stdout + out.stderr
 
 
-def test_readme_layout_names_every_module():
-    """The README's layout section matches the tree: every module and subpackage is named there,
+def test_layout_names_every_module():
+    """The API reference's layout section (docs/api/index.md) matches the tree: every module and subpackage is named there,
     and every ``*.py`` named there exists."""
     import re
 
-    readme = (SRC.parents[1] / "README.md").read_text()
-    block = readme.split("## Layout", 1)[1].split("```", 2)[1]
+    page = (SRC.parents[1] / "docs" / "api" / "index.md").read_text()
+    block = page.split("## Layout", 1)[1].split("```", 2)[1]
     named = set(re.findall(r"\b(\w+\.py)\b", block))
     files = {p.name for p in SRC.rglob("*.py") if p.name != "__init__.py"} | {"__init__.py"}
     missing = sorted(files - named)
-    assert not missing, f"modules missing from the README's layout section: {missing}"
+    assert not missing, f"modules missing from docs/api/index.md's layout section: {missing}"
     extra = sorted(named - files)
-    assert not extra, f"the README's layout section names modules that do not exist: {extra}"
+    assert not extra, f"docs/api/index.md's layout section names modules that do not exist: {extra}"
     packages = {p.parent.name for p in SRC.rglob("__init__.py") if p.parent != SRC}
     assert all(f"{pkg}/" in block for pkg in packages), f"subpackages missing: {packages}"

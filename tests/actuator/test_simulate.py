@@ -10,7 +10,7 @@ import pytest
 from hydrojam.actuator.design import apply_overrides, default_design
 from hydrojam.actuator.model import build_model
 from hydrojam.actuator.simulate import simulate
-from hydrojam.fem.solver import NewtonOptions, PathOptions
+from hydrojam.fem import NewtonOptions, PathOptions
 from undeformed import assert_nothing_moved
 
 

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from hydrojam.fem.solver import NewtonOptions, PathOptions, Problem, fixed, solve_path
+from hydrojam.fem import NewtonOptions, PathOptions, Problem, fixed, solve_path
 from hydrojam.fem.terms import EnergyTerm, ViscousStabilisation
 
 A, F = 1.0, 3.0  # the double well's depth [mJ] and the load at s = 1 [N]

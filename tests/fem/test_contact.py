@@ -14,7 +14,7 @@ from hydrojam.fem.contact import Contact, ContactSettings, collision_primitives,
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean
 from hydrojam.fem.mesh import merge
-from hydrojam.fem.solver import NewtonOptions, PathOptions, Problem, fixed, prescribed, solve_path
+from hydrojam.fem import NewtonOptions, PathOptions, Problem, fixed, prescribed, solve_path
 from hydrojam.fem.terms import ScaledTerm, body_load
 
 PARAMS = HydrogelParams()

@@ -13,7 +13,7 @@ from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.fem.linsolve import _pardiso_available
 from hydrojam.fem.meshing import quarter_disk, rectangle
-from hydrojam.fem.solver import NewtonOptions, PathOptions, Problem, fixed, solve_path
+from hydrojam.fem import NewtonOptions, PathOptions, Problem, fixed, solve_path
 from hydrojam.fem.terms import EnergyTerm, LinearTerm, ScaledTerm, ViscousStabilisation, surface_load
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean
 

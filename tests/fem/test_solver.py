@@ -12,7 +12,7 @@ from hydrojam.fem.meshing import ball_octant, box, quarter_disk, rectangle
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean
-from hydrojam.fem.solver import (
+from hydrojam.fem import (
     Dirichlet,
     NewtonOptions,
     PathOptions,
@@ -351,7 +351,7 @@ def test_terms_and_blocks_are_addressed_by_name():
 
 
 def test_newton_reports_how_it_ended_as_a_status():
-    from hydrojam.fem.solver import NewtonStatus
+    from hydrojam.fem import NewtonStatus
 
     mesh = rectangle(1.0, 1.0, 0.5, order=2)
     S = solid(mesh, GEL.at(0.0, 280.0))

@@ -26,6 +26,9 @@ def test_report(study_dir):
     assert [line.split(" | ")[0][2:] for line in claims] == [c.id for c in pclaims.PAPER_CLAIMS]
     assert not re.search(r"\bnan\b|\binf\b", text, re.IGNORECASE)
     assert "**quick**" in text and "mesh size 4 mm" in text and "62.1 min" in text and "Workers: 2 local" in text
+    # single runs: the report opens by saying each point is one sample, with the command that measures the spread
+    opening = text.split("## What was run", 1)[0]
+    assert "one sample of a spread" in opening and "`hydrojam reproduce --quick --replicas 4 -o " in opening
     assert "failed: solver stopped: minimum increment" in text
     assert "this run:" not in text  # no count given, none claimed
     again = preport.write_report(out, table, quick=True, wall_time_s=1.0, computed=3).read_text(encoding="utf-8")
@@ -68,6 +71,7 @@ def test_report_and_trends_with_replicas(study_dir, tmp_path):
         assert (tmp_path / f"{s.name}.png").read_bytes()[:8] == PNG_MAGIC
     text = preport.write_report(out, replicated, quick=True, wall_time_s=60.0,
                                 base=with_replicas(pstudy.paper_base(True), 4)).read_text(encoding="utf-8")
+    assert "one sample of a spread" not in text  # with replicas the spread is measured
     assert "Replicas: 4 per point (`--replicas 4`)" in text and "`hydrojam reproduce --quick --replicas 4`" in text
     assert "| 275 | 75.0 ± 40.0 | -50.0 ± 0.5 | -12.0 ± 0.5 | 0.50 ± 0.01 | 4/4 |" in text
     results = pclaims.check_claims(replicated)

@@ -1,2 +1,36 @@
-"""The actuator: design (TOML), geometry, model (bodies, materials, clamp, contact), stimulus path,
-simulation, metrics, output files and figures."""
+"""The actuator: its design (TOML), geometry, model (bodies, materials, clamp, contact), stimulus
+path, simulation, metrics, output files, checkpoints and figures.
+
+``Design`` -> ``build_model(design)`` -> ``simulate(model)`` -> ``SimulationResult`` with its
+``metrics``; ``ResultWriter`` writes the files of ``hydrojam run``. The names below are the public
+API, loaded on first use (the model needs gmsh and the IPC Toolkit).
+"""
+
+from __future__ import annotations
+
+import importlib
+
+_PUBLIC = {
+    "hydrojam.actuator.design": ['Design', 'DesignError', 'default_design', 'design_from_dict', 'load_design', 'apply_overrides', 'write_design', 'design_to_toml'],
+    "hydrojam.actuator.model": ['ActuatorModel', 'build_model', 'measure'],
+    "hydrojam.actuator.simulate": ['SimulationResult', 'simulate', 'RELEASE_ROUNDS', 'RELEASE_CAP'],
+    "hydrojam.actuator.stimulus": ['StimulusPath', 'stimulus_path', 'TimedStimulusPath', 'timed_stimulus_path'],
+    "hydrojam.actuator.metrics": ['Metric', 'metric', 'metric_names', 'bending_angle_deg', 'tip_displacement', 'curling_index', 'centreline_profile'],
+    "hydrojam.actuator.results": ['ResultWriter'],
+    "hydrojam.actuator.checkpoint": ['RunCheckpoint', 'CheckpointError', 'load_checkpoint', 'save_checkpoint'],
+    "hydrojam.actuator.plots": ['plot_actuator', 'plot_angle_time'],
+}
+_MODULE_OF = {name: module for module, names in _PUBLIC.items() for name in names}
+
+__all__ = [name for names in _PUBLIC.values() for name in names]
+
+def __getattr__(name: str):
+    if name in _MODULE_OF:
+        value = getattr(importlib.import_module(_MODULE_OF[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

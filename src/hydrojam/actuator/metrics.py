@@ -30,14 +30,22 @@ import numpy as np
 class Metric:
     """One reported quantity: its key in the output files, unit, meaning and value type.
 
-    name: the key in metrics.json and the column in history.csv / the sweep table.
-    unit: "deg", "mm", "1/mm", "K", "k_B T", "s", "-" (dimensionless) or "" (not a quantity).
-    description: one line, what the value means.
-    type: the Python type of a defined value (float, int, bool or str); any metric may be None
+    Attributes
+    ----------
+    name : str
+        The key in metrics.json and the column in history.csv / the sweep table.
+    unit : str
+        "deg", "mm", "1/mm", "K", "k_B T", "s", "-" (dimensionless) or "" (not a quantity).
+    description : str
+        One line, what the value means.
+    type : type
+        The Python type of a defined value (float, int, bool or str); any metric may be None
         where it is undefined (never NaN).
-    kind: "state" (measured on one state), "run" (about the whole run) or "step" (about one
+    kind : str
+        "state" (measured on one state), "run" (about the whole run) or "step" (about one
         accepted load step, in history.csv).
-    symbol: a short label for figures and reports ("" where the name serves).
+    symbol : str
+        A short label for figures and reports ("" where the name serves).
     """
 
     name: str

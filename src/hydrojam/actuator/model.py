@@ -31,7 +31,7 @@ from hydrojam.actuator.metrics import (
     polygon_area,
     tip_displacement,
 )
-from hydrojam.fem.solver import Problem, fixed
+from hydrojam.fem.problem import Problem, fixed
 from hydrojam.actuator.stimulus import (
     KineticVolumes,
     StimulusPath,
@@ -207,18 +207,11 @@ def build_model(design: Design) -> ActuatorModel:
             symmetry_nodes = mesh.group_nodes("symmetry")
         ccd = CCD_3D
     # dhat: as wide as the clearance allows (the barrier must start inactive, so that the
-    # as-prepared state is stress-free). Measured on a one-particle actuator: dhat = 0.8 c took
-    # 928 Newton iterations to T = 275 K, dhat = 0.5 c 1164 and the mesh-relative default (1% of
-    # an edge, 0.01 mm) 2736: a soft membrane's Newton steps move it by tenths of a mm, far
-    # beyond a thin barrier, which then acts only after CCD has cut the step. The price is a
-    # contact gap of at most dhat (0.08 mm at the default clearance, 0.5% of a particle radius).
-    # kappa: the membrane's shear modulus. Every contact pressure in the chamber is held by the
-    # membrane's confinement, so it is of the order of the membrane's stresses, and a barrier that
-    # stiff carries it at a gap still inside dhat (measured at the end of the default design:
-    # smallest gap 0.046 mm of dhat = 0.08). Stiffer barriers only make Newton's work harder:
-    # default design (mesh 4) at 275 K, 2872 Newton iterations with kappa = 10 G_gel (116 x this),
-    # 1661 with 0.3 G_gel, 1193 with 0.1 G_gel (about this); bending angle 75.0, 73.3, 73.1 deg,
-    # inside the spread of the path dependence (docs/actuator.md).
+    # as-prepared state is stress-free): a soft membrane's Newton steps move it by tenths of a mm,
+    # far beyond a thin barrier, which then acts only after CCD has cut the step. kappa: the
+    # membrane's shear modulus, since every contact pressure in the chamber is held by the
+    # membrane's confinement; a stiffer barrier only makes Newton's work harder. The measurements
+    # behind both: docs/actuator.md, "Model" and "Choices".
     kappa = KAPPA_PER_MEMBRANE_MODULUS * membrane.shear_modulus_ref
     settings = default_settings(mesh.points, facets, membrane.shear_modulus_ref,
                                 dhat=DHAT_PER_CLEARANCE * design.clearance, kappa=kappa, friction=design.friction,

@@ -1,5 +1,5 @@
 """Assessing an actuator as a jamming actuator: stiffness, blocked force, confinement and the
-vacuum-jamming baseline (issue 15, docs/assess.md). ``assess(design, loads)`` gives the numbers,
+vacuum-jamming baseline. ``assess(design, loads)`` gives the numbers,
 ``write_report`` the report; the pieces live in loading, chamber, confinement and design_map."""
 
 from hydrojam.assess.assessment import Assessment, assess

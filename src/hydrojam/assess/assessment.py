@@ -1,4 +1,4 @@
-"""One design assessed (issue 15, docs/assess.md): bending, the stiffness ratio, the blocked force
+"""One design assessed (docs/assess.md): bending, the stiffness ratio, the blocked force
 against temperature, the vacuum-jamming baseline and the confinement, from one function,
 :func:`assess`. Units: mm, N/mm and MPa (2D: forces and stiffnesses per unit depth), K."""
 

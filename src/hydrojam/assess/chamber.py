@@ -1,4 +1,4 @@
-"""The actuator as a loaded structure (issue 15, docs/assess.md): its terms at a stimulus (or with
+"""The actuator as a loaded structure (docs/assess.md): its terms at a stimulus (or with
 other particles), the empty chamber, the membrane's outer surface for a vacuum, and the blocked
 actuation. Units: mm, MPa, N/mm (2D, per unit depth)."""
 

@@ -1,4 +1,4 @@
-"""Does the wall hold the gel? (issue 15, docs/assess.md): the contact pressure between the
+"""Does the wall hold the gel? (docs/assess.md): the contact pressure between the
 particles and the membrane in a state, against the confined swelling pressure of the gel, the
 pressure it would exert if held at its as-prepared size. Units: MPa, mm; 2D forces N/mm."""
 

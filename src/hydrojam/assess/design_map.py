@@ -1,4 +1,4 @@
-"""The design map (issue 15, docs/assess.md): bending angle, stiffness ratio and confinement over
+"""The design map (docs/assess.md): bending angle, stiffness ratio and confinement over
 the membrane's wall thickness and shear modulus, run as a study sweep (:mod:`hydrojam.study`:
 parallel, cached, resumable), one assessment without blocked force and vacuum per point."""
 

@@ -1,4 +1,4 @@
-"""Tip loads on a clamped structure (issue 15): load-deflection curves, the tangent bending
+"""Tip loads on a clamped structure: load-deflection curves, the tangent bending
 stiffness and the blocked force (docs/assess.md).
 
 A :class:`Structure` is what is loaded: energy terms at a fixed stimulus, the clamp and the

@@ -1,3 +1,70 @@
 """The finite-element core: reference elements, meshes and the gmsh wrapper, solids, energy
-terms, IPC contact, the linear solver, Newton and the load path. Knows nothing about hydrogels
-or actuators; imports only :mod:`hydrojam.materials`' protocol."""
+terms, IPC contact, the linear solver, Newton and the load path.
+
+It knows nothing about hydrogels or actuators and imports only :mod:`hydrojam.materials`'
+protocol. Everything the solver minimises is an *energy term* (:class:`EnergyTerm`): a solid's
+stored energy (:class:`Solid`), loads, the IPC barrier (:class:`Contact`), volume constraints.
+A problem is the positions, a function of the load parameter s giving the terms, and the
+Dirichlet conditions; :func:`solve_path` follows s from 0 to 1.
+
+The names below are the public API; each lives in the module of its concept
+(``hydrojam.fem.newton``, ``hydrojam.fem.path``, ...). They are loaded on first use, so
+``import hydrojam.fem`` does not start gmsh or the IPC Toolkit.
+
+Examples
+--------
+A plane-strain gel layer bonded to a rigid substrate, swelling from its as-prepared state into
+water at 275 K, thickens 3.45x (the analytic constrained swelling):
+
+>>> from hydrojam import Hydrogel, HydrogelParams
+>>> from hydrojam.fem import Block, Problem, Solid, element_for_meshio_type, fixed, rectangle, solve_path
+>>> p = HydrogelParams(); gel = Hydrogel(p)
+>>> mesh = rectangle(4.0, 1.0, 0.5, order=2)          # mm, quadratic triangles
+>>> solid = Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), gel, "gel")])
+>>> def terms(s):                                     # the stimulus path (mu0, T0) -> (0, 275 K)
+...     return [solid.with_materials({"gel": gel.at(p.mu0 * (1 - s), p.T0 + s * (275.0 - p.T0))})]
+>>> g = mesh.group_nodes
+>>> bcs = [fixed(g("bottom"), 2), fixed(g("left"), 2, [0]), fixed(g("right"), 2, [0])]
+>>> result = solve_path(Problem(mesh.points, terms, bcs, force_scale=gel.shear_modulus_ref))
+>>> result.converged
+True
+>>> round(float(result.x[g("top"), 1].mean()), 2)    # the layer's thickness [mm]
+3.45
+"""
+
+from __future__ import annotations
+
+import importlib
+
+_PUBLIC = {
+    "hydrojam.fem.elements": ["ReferenceElement", "element_for_meshio_type", "quadrature", "physical_gradients",
+                              "facet_measure"],
+    "hydrojam.fem.mesh": ["Mesh", "merge"],
+    "hydrojam.fem.meshing": ["rectangle", "disk", "box", "ball", "bonded_rectangles", "disks", "annulus",
+                             "shell_sector", "gmsh_session", "extract_mesh"],
+    "hydrojam.fem.assembly": ["Block", "Solid"],
+    "hydrojam.fem.terms": ["EnergyTerm", "LinearTerm", "ScaledTerm", "TimedTerm", "ViscousStabilisation",
+                           "PressureTerm", "CentroidSpring", "body_load", "surface_load", "resultant_load"],
+    "hydrojam.fem.volume": ["VolumeTerm", "LocalVolumeTerm"],
+    "hydrojam.fem.contact": ["Contact", "ContactSettings", "default_settings"],
+    "hydrojam.fem.linsolve": ["LinearSolver", "LinearSolveError"],
+    "hydrojam.fem.problem": ["Problem", "Dirichlet", "fixed", "prescribed"],
+    "hydrojam.fem.newton": ["NewtonOptions", "NewtonResult", "NewtonStatus", "Timings", "minimize",
+                            "negative_curvature"],
+    "hydrojam.fem.path": ["PathOptions", "PathResult", "StepRecord", "PathCheckpoint", "solve_path"],
+}
+_MODULE_OF = {name: module for module, names in _PUBLIC.items() for name in names}
+
+__all__ = [name for names in _PUBLIC.values() for name in names]
+
+
+def __getattr__(name: str):
+    if name in _MODULE_OF:
+        value = getattr(importlib.import_module(_MODULE_OF[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'hydrojam.fem' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -370,7 +370,14 @@ class HydrogelParams(_Frozen):
     """Constants of the temperature-sensitive gel (DESIGN.md section 3); the stimulus is separate.
 
     Symbols: n = N nu (``n``), lambda0 (``lambda0``), T0 (``T0``), chi(T, J) = A0 + B0 T +
-    (A1 + B1 T)/J.
+    (A1 + B1 T)/J. The defaults are the paper's PNIPAM gel; the stress unit is k_B T / nu = 40 MPa.
+
+    Examples
+    --------
+    >>> from hydrojam import HydrogelParams
+    >>> p = HydrogelParams()
+    >>> round(p.mu0, 4)          # the paper's reference chemical potential [k_B T]
+    -0.0343
     """
 
     n: float = Field(0.01, gt=0, le=1.0, description="N nu: polymer chains per solvent-molecule volume [-]")
@@ -451,6 +458,32 @@ class Hydrogel(_InvariantMaterial):
     dry network), so W(F) = (k_B T / nu) [w(lambda0 F) - w(lambda0 I)] / lambda0^3 per as-prepared
     volume: the constant shift makes the as-prepared state the zero of energy at every stimulus
     (it does not change any stress). Build one per stimulus with :meth:`at`.
+
+    Parameters
+    ----------
+    params : HydrogelParams, optional
+        The gel's constants (default: the paper's gel).
+    mu : float, optional
+        Chemical potential of the solvent [k_B T] (default: ``params.mu0``, stress-free as prepared).
+    T : float, optional
+        Temperature [K] (default: ``params.T0``).
+
+    Examples
+    --------
+    As prepared the gel is stress-free; in pure water at 275 K, held at its as-prepared size, it
+    pushes outward, a compressive first Piola-Kirchhoff stress [MPa]:
+
+    >>> import numpy as np
+    >>> from hydrojam import Hydrogel, HydrogelParams
+    >>> gel = Hydrogel(HydrogelParams(n=0.01, lambda0=1.5, T0=300.0))
+    >>> bool(np.allclose(gel.evaluate(np.eye(3)[None]).stress, 0.0, atol=1e-12))
+    True
+    >>> cold = gel.at(mu=0.0, T=275.0)
+    >>> r = cold.evaluate(np.eye(3)[None])          # energy W, stress P = dW/dF, tangent dP/dF
+    >>> bool(r.stress[0, 0, 0] < 0.0)
+    True
+    >>> round(gel.shear_modulus_ref, 4)              # n (k_B T / nu) / lambda0 [MPa]
+    0.2667
     """
 
     def __init__(self, params: HydrogelParams | None = None, mu: float | None = None, T: float | None = None):

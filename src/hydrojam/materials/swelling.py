@@ -119,6 +119,28 @@ def transition_temperature(params: HydrogelParams, mu: float = 0.0, T_range=(273
 
     Where two minima coexist the transition is the Maxwell temperature (equal energies); where the
     swelling curve is continuous, the temperature of the steepest fall of J.
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    mu : float
+        Chemical potential of the solvent [k_B T]; 0 is pure water.
+    T_range : tuple of float
+        The temperatures searched [K] (default: liquid water's range).
+
+    Returns
+    -------
+    Transition
+        The transition temperature ``T`` [K], whether it is ``discontinuous``, and the volume
+        ratios (to the dry network) of the two branches there.
+
+    Examples
+    --------
+    >>> from hydrojam import HydrogelParams, transition_temperature
+    >>> tr = transition_temperature(HydrogelParams(), mu=0.0)
+    >>> round(tr.T, 1), tr.discontinuous
+    (305.4, True)
     """
     Ts = np.linspace(*T_range, 201)
     mins = [_minima(params, mu, T, ()) for T in Ts]
@@ -144,7 +166,35 @@ def transition_temperature(params: HydrogelParams, mu: float = 0.0, T_range=(273
 
 
 def free_swelling(params: HydrogelParams, mu: float, T: float, T_c: float | None = None) -> SwellingState:
-    """Stable stress-free state of a free gel (F = lambda I) at (mu [k_B T], T [K])."""
+    """Stable stress-free state of a free gel (F = lambda I) at (mu [k_B T], T [K]).
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    mu : float
+        Chemical potential of the solvent [k_B T]; 0 is pure water.
+    T : float
+        Temperature [K].
+    T_c : float, optional
+        The transition temperature at ``mu`` [K], if known (it picks the stable branch near the
+        transition); computed when not given.
+
+    Returns
+    -------
+    SwellingState
+        The free stretch from the dry network (``stretch``) and from the as-prepared state
+        (``stretch_rel``), the volume ratio ``J``, the branch and its energy.
+
+    Examples
+    --------
+    In pure water at 275 K the free gel swells 2.16x beyond its as-prepared size:
+
+    >>> from hydrojam import HydrogelParams, free_swelling
+    >>> st = free_swelling(HydrogelParams(), mu=0.0, T=275.0)
+    >>> round(st.stretch, 2), round(st.stretch_rel, 2), st.branch
+    (3.24, 2.16, 'swollen')
+    """
     if T_c is None:
         T_c = transition_temperature(params, mu).T
     return _equilibrium(params, mu, T, (), T_c)
@@ -162,6 +212,33 @@ def constrained_swelling(params: HydrogelParams, mu: float, T: float, held) -> S
     ``held=(l1,)``: uniaxially constrained (stretch l1 held, two lateral directions free);
     ``held=(l1, l2)``: biaxially constrained, e.g. a layer bonded to a rigid substrate with
     ``held=(lambda0, lambda0)`` swells in thickness only. The free stretches carry zero stress.
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    mu : float
+        Chemical potential of the solvent [k_B T].
+    T : float
+        Temperature [K].
+    held : float or tuple of float
+        One or two principal stretches held, from the dry network [-].
+
+    Returns
+    -------
+    SwellingState
+        ``stretch`` is the free stretch (from the dry network).
+
+    Examples
+    --------
+    A layer bonded to a rigid substrate, in pure water at 275 K, thickens 3.45x from its
+    as-prepared thickness (Hong, Liu & Suo 2009):
+
+    >>> from hydrojam import HydrogelParams, constrained_swelling
+    >>> p = HydrogelParams()
+    >>> st = constrained_swelling(p, 0.0, 275.0, held=(p.lambda0, p.lambda0))
+    >>> round(st.stretch / p.lambda0, 2)
+    3.45
     """
     held = tuple(float(h) for h in np.atleast_1d(held))
     if not 1 <= len(held) <= 2 or min(held) <= 0:

@@ -194,6 +194,13 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
         model = f"2D plane strain (particles are cylinders), mesh size {base.mesh.size:g} mm (quadratic triangles)"
     L = [f"# hydrojam reproduction of Chen, Schott & Jovanova, Section IV (Figs. 6-11){', in 3D' if dim == 3 else ''}",
          ""]
+    if n_replicas <= 1:
+        # a single run is one sample of a spread: a newcomer's first verdicts must not read as the answer
+        L += [f"**Each point is one run: one sample of a spread.** A column of slippery particles has many "
+              f"equilibria and round-off picks one, so one run's trend can reverse between neighbouring points, "
+              f"and the verdicts below are those of these samples. `{reproduce_command(quick, dim, 4)} -o {out}` "
+              "runs 4 replicas of every point (reusing these runs; `--sweep NAME` for some sweeps only) and decides a "
+              "statement only beyond their spread (docs/replicas.md).", ""]
     L += ["## What was run", ""]
     L += [f"- Study: **{'quick' if quick else 'full'}{', 3D' if dim == 3 else ''}** "
           f"(`{command}`), hydrojam {__version__}.",
