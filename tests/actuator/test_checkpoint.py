@@ -27,8 +27,14 @@ from hydrojam.actuator.model import build_model
 from hydrojam.actuator.results import ResultWriter
 from hydrojam.actuator.simulate import simulate
 from hydrojam.cli import main
+from hydrojam.fem.path import ReleaseOptions
 
 SMALL = ["particle_layers=1", "mesh.size=4"]
+
+#: the path that releases its stabilisation once, at s = 1 (ReleaseOptions.each_step False): the
+#: runs whose release at s = 1 is stopped and resumed
+STABILISED = dataclasses.replace(simulate_module.ACTUATOR_PATH, damping_start=1.0, extrapolate=False,
+                                 release=ReleaseOptions(each_step=False))
 
 
 class _Stop(Exception):
@@ -43,6 +49,12 @@ def design():
 @pytest.fixture(scope="module")
 def reference(design):
     return simulate(build_model(design))
+
+
+@pytest.fixture(scope="module")
+def stabilised(design):
+    """The design run in one go on the path released at s = 1 only."""
+    return simulate(build_model(design), options=STABILISED)
 
 
 def _interrupted(folder, design, stop_at_state=None, stop_in_release=False, monkeypatch=None):
@@ -67,17 +79,18 @@ def _interrupted(folder, design, stop_at_state=None, stop_in_release=False, monk
 
         monkeypatch.setattr(simulate_module, "save_checkpoint", save_then_stop)
     with pytest.raises(_Stop):
-        simulate(model, on_step=on_step, checkpoint=writer.checkpoint_path)
+        simulate(model, on_step=on_step, checkpoint=writer.checkpoint_path,
+                 options=STABILISED if stop_in_release else None)
     if monkeypatch is not None:
         monkeypatch.undo()
 
 
-def _resumed(folder, design):
+def _resumed(folder, design, options=None):
     model = build_model(design)
     writer = ResultWriter(folder, model)
     ck = writer.start(resume=True)
     assert ck is not None, writer.discarded
-    result = simulate(model, on_step=writer.step, checkpoint=writer.checkpoint_path, resume=ck)
+    result = simulate(model, on_step=writer.step, checkpoint=writer.checkpoint_path, resume=ck, options=options)
     return ck, result, writer.finish(result, plot=False)
 
 
@@ -106,18 +119,18 @@ def test_a_run_stopped_on_its_path_goes_on_as_if_it_had_not_stopped(tmp_path, de
     assert metrics["wall_time_s"] >= ck.elapsed_s
 
 
-def test_a_run_stopped_in_the_release_goes_on_in_the_release(tmp_path, design, reference, monkeypatch):
+def test_a_run_stopped_in_the_release_goes_on_in_the_release(tmp_path, design, stabilised, monkeypatch):
     _interrupted(tmp_path, design, stop_in_release=True, monkeypatch=monkeypatch)
-    ck, result, metrics = _resumed(tmp_path, design)
+    ck, result, metrics = _resumed(tmp_path, design, STABILISED)
     assert ck.release is not None and len(ck.release.rounds) == 1
     assert ck.states[-1]["s"] == 1.0
-    assert result.newton_iterations == reference.newton_iterations
-    np.testing.assert_array_equal(result.final.x, reference.final.x)
-    assert result.stabilisation["release_rounds"] == reference.stabilisation["release_rounds"]
+    assert result.newton_iterations == stabilised.newton_iterations
+    np.testing.assert_array_equal(result.final.x, stabilised.final.x)
+    assert result.stabilisation["release_rounds"] == stabilised.stabilisation["release_rounds"]
     assert metrics["stabilisation_released"] is True
-    assert len(_history(tmp_path)) == len(reference.states)  # the released state replaced the stabilised one
+    assert len(_history(tmp_path)) == len(stabilised.states)  # the released state replaced the stabilised one
     # the work of the whole run, rejected attempts and the stopped part's rounds included
-    assert result.timings["newton_iterations"] == reference.timings["newton_iterations"]
+    assert result.timings["newton_iterations"] == stabilised.timings["newton_iterations"]
     assert ck.release.timings.iterations == ck.release.iterations
 
 
@@ -158,7 +171,7 @@ def test_hydrojam_run_goes_on_from_a_checkpoint_and_fresh_starts_over(tmp_path, 
     assert "resumed" not in json.loads((out / "metrics.json").read_text())["provenance"]
 
 
-def test_a_release_checkpoint_without_its_timings_still_counts_its_iterations(tmp_path, design, reference,
+def test_a_release_checkpoint_without_its_timings_still_counts_its_iterations(tmp_path, design, stabilised,
                                                                              monkeypatch):
     """A checkpoint written before the release's timings were kept (release.timings None) is
     resumed, and the run's timings count the stopped rounds' iterations from its round list."""
@@ -167,13 +180,13 @@ def test_a_release_checkpoint_without_its_timings_still_counts_its_iterations(tm
     path = tmp_path / CHECKPOINT
     ck = load_checkpoint(path, model.design, model.mesh.points.shape)
     save_checkpoint(path, dataclasses.replace(ck, release=dataclasses.replace(ck.release, timings=None)))
-    ck, result, _ = _resumed(tmp_path, design)
+    ck, result, _ = _resumed(tmp_path, design, STABILISED)
     assert ck.release.timings is None
-    assert result.timings["newton_iterations"] == reference.timings["newton_iterations"]
-    np.testing.assert_array_equal(result.final.x, reference.final.x)
+    assert result.timings["newton_iterations"] == stabilised.timings["newton_iterations"]
+    np.testing.assert_array_equal(result.final.x, stabilised.final.x)
 
 
-def test_a_release_reports_its_progress_after_every_round(tmp_path, design, reference, monkeypatch):
+def test_a_release_reports_its_progress_after_every_round(tmp_path, design, stabilised, monkeypatch):
     """on_release sees every round the release goes on from (their count, the iterations so far,
     the next round's damping); the checkpoint says the same to a reader in another process
     (release_progress, the sweep's running points), where the wall time counts the rounds so far
@@ -181,7 +194,7 @@ def test_a_release_reports_its_progress_after_every_round(tmp_path, design, refe
     from hydrojam.study.sweep import running_point
 
     seen = []
-    result = simulate(build_model(design), on_release=seen.append)
+    result = simulate(build_model(design), on_release=seen.append, options=STABILISED)
     rounds = result.stabilisation["release_rounds"]
     assert result.stabilisation["released"] and len(rounds) >= 2
     assert [p.rounds for p in seen] == list(range(1, len(rounds)))  # the last round ends it

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from hydrojam.fem import NewtonOptions, PathOptions, Problem, fixed, solve_path
+from hydrojam.fem.path import ReleaseOptions
 from hydrojam.fem.terms import EnergyTerm, ViscousStabilisation
 
 A, F = 1.0, 3.0  # the double well's depth [mJ] and the load at s = 1 [N]
@@ -52,7 +53,7 @@ def _snap(growth, easy=4, recover=True, load=1.0, relax=0):
     problem = Problem(np.array([[-1.0, 0.0]]), lambda s: [DoubleWell(load * s), stab], [fixed([0], 2, [1])])
     options = PathOptions(ds0=0.1, ds_max=0.1, ds_min=1e-3, easy_iterations=easy, damping_growth=growth,
                           newton=NewtonOptions(max_iter=6), stability_check=False, recover=recover,
-                          damping_relax_after=relax)
+                          damping_relax_after=relax, release=ReleaseOptions(each_step=False), extrapolate=False)
     return problem, options, stab
 
 

@@ -13,6 +13,7 @@ from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.fem.linsolve import _pardiso_available
 from hydrojam.fem.meshing import quarter_disk, rectangle
+from hydrojam.fem.path import ReleaseOptions
 from hydrojam.fem import NewtonOptions, PathOptions, Problem, fixed, solve_path
 from hydrojam.fem.terms import EnergyTerm, LinearTerm, ScaledTerm, ViscousStabilisation, surface_load
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean
@@ -145,7 +146,8 @@ def test_a_snap_through_held_by_a_stabilisation_is_detected_past_its_limit_point
     load = LinearTerm(np.array([[f_max]]), X)
     stab = ViscousStabilisation(np.array([1.0]), c, 1)
     problem = Problem(X, lambda s: [well, ScaledTerm(load, s), stab], [], force_scale=f_max)
-    res = solve_path(problem, PathOptions(ds0=ds, ds_max=ds, newton=NewtonOptions(rtol=1e-10)))
+    stabilised = dict(release=ReleaseOptions(each_step=False), extrapolate=False)  # the path's own states
+    res = solve_path(problem, PathOptions(ds0=ds, ds_max=ds, newton=NewtonOptions(rtol=1e-10), **stabilised))
     assert res.converged, res.message
     u, expected = -1.0, []
     for h in res.history:
@@ -158,8 +160,42 @@ def test_a_snap_through_held_by_a_stabilisation_is_detected_past_its_limit_point
     assert res.x[0, 0] > 1.0  # it snapped to the right well
     # with the stabilisation counted as physics, no state is unstable: what the choice is about
     counted = solve_path(problem, PathOptions(ds0=ds, ds_max=ds, newton=NewtonOptions(rtol=1e-10),
-                                              unphysical_terms=()))
+                                              unphysical_terms=(), **stabilised))
     assert counted.unstable_at_s is None
+
+
+def test_a_released_path_reports_only_equilibria_of_the_physics_through_a_snap():
+    """The same double well and stabilisation, the path releasing it at every step (the default,
+    ReleaseOptions.each_step): every accepted state is an equilibrium of the physics alone,
+    k (u^3 - u) = f, within the Newton tolerance, and a stable one: on the left branch
+    (u < -1/sqrt 3, the root brentq finds there) while that branch exists (s < s_lim), on the
+    right one (u > 1/sqrt 3) after the snap. No state is unstable, as no state is held by the
+    stabilisation. rtol 1e-4: a tolerance well above the residual at which this energy's
+    round-off (1e-14 of 0.25 mJ, a decrement r^2/2k: r about 7e-8 N against forces of 0.02-0.8 N)
+    lets Newton stop short of it (NewtonStatus.CONVERGED_DECREMENT)."""
+    k, f_max, ds = 1.0, 0.77, 0.02
+    f_lim = 2 * k / (3 * math.sqrt(3))
+    s_lim = f_lim / f_max
+    X = np.array([[-1.0]])
+    stab = ViscousStabilisation(np.array([1.0]), 2.0 * k, 1)
+    problem = Problem(X, lambda s: [DoubleWell(k), ScaledTerm(LinearTerm(np.array([[f_max]]), X), s), stab], [],
+                      force_scale=f_max)
+    res = solve_path(problem, PathOptions(ds0=ds, ds_max=ds, newton=NewtonOptions(rtol=1e-4)))
+    assert res.converged, res.message
+    assert any(h.release_rounds > 0 for h in res.history)  # the snap's steps needed the release
+    states = []
+    solve_path(problem, PathOptions(ds0=ds, ds_max=ds, newton=NewtonOptions(rtol=1e-4)),
+               callback=lambda s, x, rec: states.append((s, float(x[0, 0]), rec)))
+    for s, u, rec in states:
+        f = s * f_max
+        assert rec.residual <= rec.tolerance and abs(k * (u**3 - u) - f) <= rec.tolerance
+        if s < s_lim:
+            expected = brentq(lambda v: k * (v**3 - v) - f, -3.0, -1 / math.sqrt(3))
+        else:
+            expected = brentq(lambda v: k * (v**3 - v) - f, 1 / math.sqrt(3), 3.0)
+        # the tolerance over the curvature k (3 u^2 - 1) bounds the distance to the root
+        assert abs(u - expected) <= 10 * rec.tolerance / (k * (3 * expected**2 - 1)), (s, u, expected)
+        assert rec.negative_eigenvalues == 0
 
 
 def test_stable_problems_never_report_an_instability():

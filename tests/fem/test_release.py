@@ -68,14 +68,16 @@ def _release(terms, stab, scale=1.0, x=None, moved=True, **kw):
                    **kw)
 
 
-def test_a_state_without_viscous_force_is_released_without_a_round(monkeypatch):
-    """At a state where the damping pulls with no force (an undamped step, or one that did not
-    move) the release takes no round and leaves the state as it is: the step's own convergence
-    made it an equilibrium of the other terms."""
+def test_an_equilibrium_of_the_physics_is_released_without_a_round(monkeypatch):
+    """A state where the physics alone is already in equilibrium (an undamped step) takes no
+    round and is left as it is; one where the damping pulls but the physics is not (x = 0, the
+    spring's force 1 N) takes rounds."""
     terms, stab = _stand_in(monkeypatch)
-    out = _release(terms, stab, x=np.zeros((1, 2)), moved=False)
+    out = _release(terms, stab, x=_TARGET.copy(), moved=False)
     assert out.released and out.rounds == [] and out.iterations == 0
-    assert np.array_equal(out.x, np.zeros((1, 2)))
+    assert np.array_equal(out.x, _TARGET) and out.residual <= out.tolerance
+    terms, stab = _stand_in(monkeypatch)
+    assert _release(terms, stab, x=np.zeros((1, 2)), moved=False).rounds
 
 
 def test_the_release_lowers_the_damping_after_a_failure_only_after_an_easy_round(monkeypatch):

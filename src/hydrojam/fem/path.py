@@ -22,9 +22,9 @@ class ReleaseOptions:
     """Taking a damped term (a viscous stabilisation, :attr:`PathOptions.damped_term`) off at a
     state by proximal rounds (:func:`release`): minimise with the damping centred on the last
     state and every lagged quantity (friction) frozen there, again and again, the damping lowered
-    ``lower``x after every converged round and raised ``growth``x after a failed one. The viscous
-    force left at the end of a round is exactly the residual of the physics alone, so the state
-    is an equilibrium once that force is within the Newton tolerance (rtol x the forces in play).
+    ``lower``x after every converged round and raised ``growth``x after a failed one, until the
+    residual of the physics alone (the damped term left out) is within the Newton tolerance
+    (rtol x the forces in play): the state is then an equilibrium without the damping.
     """
 
     each_step: bool = True
@@ -281,8 +281,8 @@ def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, 
     """Take the damped term ``damped`` (one of ``terms``, with a ``scale``) off at positions x
     (n, d) [mm] by proximal rounds (:class:`ReleaseOptions`), from its present scale.
 
-    Before the first round the state is tested as it is: a step that barely moved is released
-    without a round. ``base_scale``: the damped term's scale at the start of the path, to which
+    Before the first round the state is tested as it is: an undamped step, or one that barely
+    moved, is released without a round. ``base_scale``: the damped term's scale at the start of the path, to which
     ``options.cap`` and ``options.floor`` are relative. The damped term's scale is left where the
     last round set it. ``on_round(state)`` after every round that the release goes on from;
     ``resume``: such a state to go on from (``x`` unused)."""
@@ -302,12 +302,14 @@ def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, 
         r, tol = physical_residual(terms, x, free, force_scale, newton, unphysical)
         return ReleaseResult(x, its, ok, rounds, r, tol, spent)
 
-    def viscous_is_off() -> bool:
-        viscous = float(np.linalg.norm(damped.gradient(x)[free]))
-        _, tol = physical_residual(terms, x, free, force_scale, newton, unphysical)
-        return viscous <= tol
+    def equilibrium(roundoff: bool = False) -> bool:
+        """The physics alone within its tolerance at x; or, after a round that stopped at the
+        energy's round-off (``roundoff``), no viscous force above it left: the physics is then at
+        its round-off too."""
+        r, tol = physical_residual(terms, x, free, force_scale, newton, unphysical)
+        return r <= tol or (roundoff and float(np.linalg.norm(damped.gradient(x)[free])) <= tol)
 
-    if resume is None and viscous_is_off():
+    if resume is None and equilibrium():
         return result(True)
     for _ in range(options.max_rounds - len(rounds)):
         damped.scale = scale
@@ -328,7 +330,7 @@ def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, 
             failed = True
         else:
             x = res.x
-            if viscous_is_off():
+            if equilibrium(res.status is not NewtonStatus.CONVERGED):
                 return result(True)
             if (not failed or res.iterations <= options.easy_after_failure
                     or (past_cap and _held_since_failure(rounds, options.cap_backoff_rounds))):
