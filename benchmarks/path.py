@@ -61,6 +61,8 @@ VARIANTS = {
     "no_extrapolation": {"options": {"extrapolate": False}},
     "damped_from_start": {"options": {"damping_start": 1.0}},
     "no_stabilisation": {"stabilisation": 0.0},
+    "settle_every": {"options": {"settle": "every"}},
+    "settle_never": {"options": {"settle": "never"}},
     "path_ds_0.1_0.2": {"options": {"ds0": 0.1, "ds_max": 0.2}},
 }
 

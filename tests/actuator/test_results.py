@@ -355,7 +355,8 @@ def test_metrics_json_keys_follow_the_registry(model, X, tmp_path):
     assert keys == list(written) == [m.name for m in (*STATE_METRICS, *RUN_FIELDS)] + ["timings_s", "provenance"]
     assert HISTORY_COLUMNS[:5] == ["step", "s", "mu_kT", "temperature_K", "time_s"]
     assert HISTORY_COLUMNS[5:-5] == [m.name for m in STATE_METRICS]
-    assert HISTORY_COLUMNS[-3:] == ["newton_iterations", "wall_time_s", "negative_eigenvalues"]
+    assert HISTORY_COLUMNS[-5:] == ["newton_iterations", "wall_time_s", "negative_eigenvalues", "residual_N",
+                                    "tolerance_N"]
 
 
 def test_metrics_json_records_provenance(monkeypatch):

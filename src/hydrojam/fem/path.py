@@ -82,6 +82,13 @@ class PathOptions:
     unphysical_terms: tuple[str, ...] = ("stabilisation",)
     """Names of the terms that are not physics (a viscous stabilisation): left out of the
     stability check."""
+    settle: str = "final"
+    """Where a state found unstable by the stability check (a saddle: Newton converges to any
+    stationary point) is moved off it to a stable one (:func:`settle`): "final" (the end of the
+    path), "every" (every accepted state) or "never"."""
+    settle_perturbation: float = 1e-5
+    """Size of the seeded random nudge off a saddle, relative to the reference's bounding box
+    diagonal (grown 10x for each further try, three tries)."""
     damped_term: str = "stabilisation"
     """Name of the term whose ``scale`` (a viscous stabilisation's) the adaptive damping sets."""
     damping_growth: float = 10.0
@@ -95,7 +102,7 @@ class PathOptions:
     damping_start: float = 1.0
     """The damped term's scale where the path starts and to which easy steps lower it again,
     relative to the scale it was built with. 0: every step is first tried undamped, and the
-    damping (the built scale, then ``damping_growth``x) comes in only for a step that fails
+    damping (the built scale, then ``damping_growth`` times more) comes in only for a step that fails
     without it, as ABAQUS's adaptive automatic stabilisation."""
     extrapolate: bool = True
     """Start every step after the first from the linear extrapolation of the last increment (the
@@ -392,6 +399,52 @@ def _extrapolated(terms, x, x_start, previous, ds, free, shape):
     return x_start
 
 
+@dataclass(frozen=True)
+class Settled:
+    """Outcome of :func:`settle`: positions x (n, d) [mm], the negative eigenvalues left there,
+    Newton iterations, the physics' residual and tolerance [N] and the Newton work."""
+
+    x: np.ndarray
+    negative: int | None
+    iterations: int
+    residual: float
+    tolerance: float
+    timings: Timings
+
+
+def settle(terms, x: np.ndarray, free: np.ndarray, force_scale: float, options: "PathOptions",
+           solver: LinearSolver, checker: LinearSolver, tries: int = 3) -> Settled:
+    """Move an unstable equilibrium x (n, d) [mm] of ``terms`` (the physics) off its saddle: nudge
+    the free DOFs by a seeded random vector of ``options.settle_perturbation`` x the bounding box
+    diagonal and minimise with every element and contact Hessian projected to positive
+    semi-definite (``projection="always"``, a descent that a saddle does not attract), up to
+    ``tries`` times with a 10x larger nudge each; the result is the first stable state reached,
+    or x itself with its count where none was."""
+    xs = np.asarray(x, dtype=float)
+    size = float(np.linalg.norm(xs.max(axis=0) - xs.min(axis=0)))
+    newton = dataclasses.replace(options.newton, projection="always")
+    mask = free.reshape(xs.shape)
+    rng = np.random.default_rng(0)
+    spent, its = Timings(), 0
+    negative = None
+    for k in range(tries):
+        nudge = options.settle_perturbation * 10.0 ** k * size * rng.standard_normal(xs.shape) * mask
+        start = xs + nudge
+        if not np.isfinite(sum_energy(terms, start)) or min([1.0] + [t.max_step(xs, nudge) for t in terms]) < 1.0:
+            continue
+        res = minimize(terms, start, free, force_scale, newton, solver)
+        spent.add(res.timings)
+        its += res.iterations
+        if not res.converged:
+            continue
+        negative = negative_curvature(terms, res.x, free, checker, options.newton)
+        if negative == 0:
+            r, tol = physical_residual(terms, res.x, free, force_scale, options.newton, ())
+            return Settled(res.x, 0, its, r, tol, spent)
+    r, tol = physical_residual(terms, xs, free, force_scale, options.newton, ())
+    return Settled(xs, negative, its, r, tol, spent)
+
+
 def solve_path(
     problem: Problem,
     options: PathOptions = PathOptions(),
@@ -493,10 +546,20 @@ def solve_path(
             previous = (x, ds)
             x = x_new.ravel().copy()
             negative = None
+            its = res.iterations + (0 if rel is None else rel.iterations)
             if checker is not None:
                 physical = [t for t in terms if t.name not in options.unphysical_terms]
                 negative = negative_curvature(physical, x_new, free, checker, options.newton)
-            its = res.iterations + (0 if rel is None else rel.iterations)
+                final = s >= 1.0 - options.end_tolerance
+                if negative and (options.settle == "every" or (options.settle == "final" and final)):
+                    settled = settle(physical, x_new, free, problem.force_scale, options, solver, checker)
+                    tm.add(settled.timings)
+                    its += settled.iterations
+                    if settled.negative == 0:
+                        x_new, negative = settled.x, 0
+                        x = x_new.ravel().copy()
+                        rel = dataclasses.replace(rel, x=x_new, residual=settled.residual,
+                                                  tolerance=settled.tolerance) if rel is not None else rel
             if rel is None:
                 residual, tolerance = physical_residual(terms, x_new, free, problem.force_scale, options.newton,
                                                         options.unphysical_terms if damped is None else ())
