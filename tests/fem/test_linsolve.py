@@ -224,3 +224,52 @@ def test_pardiso_reports_the_inertia_of_a_symmetric_indefinite_matrix(negative):
     scipy_solver = LinearSolver("scipy")
     scipy_solver.solve(K, np.ones(n))
     assert scipy_solver.negative_eigenvalues is None
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_a_reused_ordering_solves_like_a_fresh_one():
+    """New patterns analysed with the ordering of an earlier analysis (iparm(5) = 1) against
+    each pattern ordered afresh: both direct solves of the same matrices, so the same solutions
+    to 100 x eps x cond(K) relative to |x|; the ordering was computed only where the fill grew
+    past ``reorder_fill`` (here at the first analysis and at most a few more)."""
+    reused = LinearSolver("pardiso")
+    fresh = LinearSolver("pardiso")
+    fresh.reuse_ordering = False
+    for K, b in _contact_sequence(seed=4):
+        x, y = reused.solve(K, b), fresh.solve(K, b)
+        tol = 100 * np.finfo(float).eps * np.linalg.cond(K.toarray()) * np.linalg.norm(y)
+        assert np.linalg.norm(x - y) <= tol
+    assert reused.analyses == fresh.analyses > 2
+    assert fresh.reorderings == fresh.analyses
+    assert 1 <= reused.reorderings < reused.analyses
+    assert reused._pardiso._ps.iparm[4] == 0  # the user-ordering switch is off between analyses
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_an_ordering_whose_fill_grew_is_computed_afresh():
+    """With ``reorder_fill`` below 1 every analysis on a reused ordering counts as filling too
+    much: the next analysis orders afresh, so orderings are computed at every other analysis."""
+    solver = LinearSolver("pardiso")
+    solver.reorder_fill = 0.0
+    for K, b in _contact_sequence(seed=5):
+        solver.solve(K, b)
+    assert solver.reorderings == (solver.analyses + 1) // 2
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+@pytest.mark.parametrize("stop", [3, 11, 20])
+def test_a_restored_solver_goes_on_bit_for_bit(stop):
+    """A solver restored from another's :attr:`LinearSolver.pattern` (the union pattern and the
+    orderings) solves the rest of a sequence with the same bits as the one that went on: the
+    same patterns analysed with the same orderings."""
+    seq = _contact_sequence(seed=6)
+    first = LinearSolver("pardiso")
+    first.reorder_fill = 1.01  # orderings computed afresh now and then, so the state to carry varies
+    for K, b in seq[:stop]:
+        first.solve(K, b)
+    second = LinearSolver("pardiso")
+    second.reorder_fill = 1.01
+    second.restore_pattern(first.pattern)
+    for K, b in seq[stop:]:
+        assert np.array_equal(first.solve(K, b), second.solve(K, b))
+    assert first._ordering is None or np.array_equal(first._ordering, second._ordering)
