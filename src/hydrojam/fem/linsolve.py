@@ -158,46 +158,40 @@ class _Pardiso:
 
 class _UpperPattern:
     """One sparsity pattern of the upper triangle that PARDISO sees (sorted CSR ``indptr``,
-    ``indices``): 1-based int32 ``ia``/``ja`` for PARDISO, ``key`` identifying it (the analysis
-    is reused while it stays), whether some row is empty (PARDISO would crash) and ``positions``,
-    the pattern with every entry's position + 1 as its value, which locates another pattern's
-    entries by one sparse elementwise product."""
+    ``indices``, kept 0-based for the bookkeeping kernels): 1-based int32 ``ia``/``ja`` for
+    PARDISO, ``key`` identifying it (the analysis is reused while it stays) and whether some row
+    is empty (PARDISO would crash)."""
 
     def __init__(self, indptr: np.ndarray, indices: np.ndarray):
         self.n, self.nnz = len(indptr) - 1, len(indices)
-        self.positions = sp.csr_matrix((np.arange(1.0, self.nnz + 1.0), indices, indptr), shape=(self.n, self.n))
-        self.ia = (indptr + 1).astype(np.int32)
-        self.ja = (indices + 1).astype(np.int32)
+        self.indptr = np.ascontiguousarray(indptr, dtype=np.int64)
+        self.indices = np.ascontiguousarray(indices, dtype=np.int64)
+        self.ia = (self.indptr + 1).astype(np.int32)
+        self.ja = (self.indices + 1).astype(np.int32)
         self.empty_row = not np.diff(indptr).all()
         self.key = (self.n, hash(self.ia.tobytes()), hash(self.ja.tobytes()))
-
-    def locate(self, pattern: sp.csr_matrix) -> np.ndarray | None:
-        """Positions in this pattern of the entries of ``pattern`` (sorted CSR, every value
-        non-zero) in their CSR order; None if some entry is not in this pattern."""
-        hit = self.positions.multiply(pattern)
-        if hit.nnz != pattern.nnz:
-            return None
-        return hit.tocsr().data.astype(np.int64) - 1
 
 
 class _Gather:
     """How a matrix of one sparsity pattern (sorted CSR ``indptr``, ``indices``) lands on an
-    :class:`_UpperPattern`: its upper triangle ``upper`` (a pattern, every value 1) holds its
-    values ``data[src]``; they are stored at ``dst`` of ``pattern``."""
+    :class:`_UpperPattern`: its upper entries ``data[src]`` are stored at ``dst`` of ``pattern``."""
 
     def __init__(self, indptr: np.ndarray, indices: np.ndarray):
         self.indptr, self.indices = indptr.copy(), indices.copy()
-        n = len(indptr) - 1
-        rows = np.repeat(np.arange(n), np.diff(indptr))
-        self.src = np.flatnonzero(indices >= rows)
-        upper_ptr = np.concatenate([[0], np.cumsum(np.bincount(rows[self.src], minlength=n))])
-        self.upper = sp.csr_matrix((np.ones(len(self.src)), indices[self.src], upper_ptr), shape=(n, n))
         self.pattern: _UpperPattern | None = None
+        self.src: np.ndarray | None = None
         self.dst: np.ndarray | None = None
 
     def matches(self, K: sp.csr_matrix) -> bool:
         """Whether K has this sparsity pattern."""
         return np.array_equal(self.indptr, K.indptr) and np.array_equal(self.indices, K.indices)
+
+
+def _kernels():
+    """fem/_kernels.py, imported on first use (``import hydrojam`` does not load numba)."""
+    from hydrojam.fem import _kernels as k
+
+    return k
 
 
 class LinearSolver:
@@ -247,7 +241,10 @@ class LinearSolver:
     def _solve_pardiso(self, K: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         if self._pardiso is None:
             self._pardiso = _Pardiso(self.threads)
-        pattern, data = self._on_union_pattern(K)
+        if not K.has_canonical_format:  # duplicates or unsorted: sum them as triu's COO route does
+            K = sp.triu(K, format="csr")
+            K.sort_indices()
+        pattern, data = self._on_union_pattern(self._gather(K), K)
         if pattern.empty_row:  # PARDISO would crash on it (pypardiso refuses it too)
             raise LinearSolveError("pardiso: matrix is singular (an empty row)")
         # The symbolic analysis (ordering) depends only on the sparsity pattern: reuse it while the
@@ -302,28 +299,31 @@ class LinearSolver:
         self._gathers = [g] + self._gathers[: self._kept_patterns - 1]
         return g
 
-    def _on_union_pattern(self, K: sp.csr_matrix) -> tuple[_UpperPattern, np.ndarray]:
+    def _on_union_pattern(self, g: _Gather, K: sp.csr_matrix) -> tuple[_UpperPattern, np.ndarray]:
         """K's upper triangle stored on the union of the sparsity patterns seen lately (explicit
         zeros where it has no entry), so that contacts coming and going do not change the pattern
         and PARDISO's analysis is reused: the pattern and the values on it. The union restarts
         from K's own pattern when that fills less than 70% of it (contacts long gone would only
-        slow the factorisation). Without analysis reuse, K's own pattern."""
-        if not K.has_canonical_format:  # duplicates or unsorted: sum them as triu's COO route does
-            K = sp.triu(K, format="csr")
-            K.sort_indices()
-        g = self._gather(K)
+        slow the factorisation). Without analysis reuse, K's own pattern. Where K's entries lie
+        in the union and the merge of the two are compiled row-by-row walks of the sorted rows
+        (fem/_kernels.py): exact, so the same patterns as any other way of finding them."""
         u = self._union
         if g.pattern is None or g.pattern is not u:
-            nnz = g.upper.nnz
-            if self.reuse_analysis and u is not None and u.n == K.shape[0] and nnz >= 0.7 * u.nnz:
-                pos = u.locate(g.upper)
-                if pos is None:  # merge: the pattern of the sum of the two (positive values)
-                    merged = (u.positions + g.upper).tocsr()
-                    u = _UpperPattern(merged.indptr, merged.indices)
-                    pos = u.locate(g.upper)
-            else:
-                u, pos = _UpperPattern(g.upper.indptr, g.upper.indices), np.arange(nnz)
-            self._union, g.pattern, g.dst = u, u, pos
+            k = _kernels()
+            pos = None
+            if self.reuse_analysis and u is not None and u.n == K.shape[0]:
+                pos, missing = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
+                if np.count_nonzero(pos != -2) < 0.7 * u.nnz:
+                    pos = None  # restart from K's own pattern
+                elif missing:  # merge: the union of the two patterns
+                    u = _UpperPattern(*k.merge_upper(K.indptr, K.indices, u.indptr, u.indices))
+                    pos, _ = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
+            if pos is None:
+                u = _UpperPattern(*k.merge_upper(K.indptr, K.indices, np.zeros(K.shape[0] + 1, dtype=np.int64),
+                                                  np.zeros(0, dtype=np.int64)))
+                pos, _ = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
+            g.src = np.flatnonzero(pos >= 0)
+            self._union, g.pattern, g.dst = u, u, pos[g.src]
         data = np.zeros(u.nnz)
         data[g.dst] = K.data[g.src]
         return u, data
