@@ -95,13 +95,14 @@ class _Pardiso:
             setter(ctypes.c_int(threads))
 
     def solve(self, data: np.ndarray, ia: np.ndarray, ja: np.ndarray, b: np.ndarray,
-              reuse_analysis: bool, ordering: np.ndarray | None = None) -> np.ndarray:
+              reuse_analysis: bool, ordering: np.ndarray | None = None, keep_ordering: bool = False) -> np.ndarray:
         """Solution for the upper triangle given as CSR ``data`` with 1-based int32 ``ia``
         (row pointers) and ``ja`` (sorted column indices): phase 23 (numerical factorisation +
         solve) reusing the last analysis, or 13 (analysis too). An analysis takes ``ordering``
         (a fill-reducing permutation of these n unknowns, PARDISO's ``perm``) as its ordering
-        (iparm(5) = 1: only the symbolic factorisation runs) or, None, computes one (iparm(2))
-        and leaves it in :attr:`ordering`."""
+        (iparm(5) = 1: only the symbolic factorisation runs) or, None, computes one (iparm(2)),
+        left in :attr:`ordering` where ``keep_ordering`` (iparm(5) = 2; else iparm(5) = 0 and
+        :attr:`ordering` None)."""
         ps = self._ps
         n = len(ia) - 1
         if b.shape != (n,):
@@ -116,10 +117,13 @@ class _Pardiso:
                     raise ValueError(f"an ordering of {ordering.shape} for a matrix of {n} rows")
                 self.ordering = np.array(ordering, dtype=np.int32)
                 ps.iparm[4] = 1  # iparm(5) = 1: perm is the user's ordering
-            else:
+            elif keep_ordering:
                 self.ordering = np.zeros(n, dtype=np.int32)
                 ps.iparm[4] = 2  # iparm(5) = 2: PARDISO writes the ordering it computed to perm
-            ps.perm = self.ordering
+            else:
+                self.ordering = None
+                ps.iparm[4] = 0
+            ps.perm = self.ordering if self.ordering is not None else np.zeros(0, dtype=np.int32)
             ps.iparm[17] = -1  # iparm(18) < 0: report the factor's entries (overwritten by each report)
         x = np.zeros_like(b)
         err = ctypes.c_int32(0)
@@ -205,10 +209,12 @@ class LinearSolver:
     """
 
     reuse_ordering: bool = True
-    """Whether a new pattern is analysed with the last fill-reducing ordering (PARDISO's
-    iparm(5) = 1) instead of computing one: the ordering is about half of an analysis, and a
-    few new contact couplings hardly change what a good one is (docs/solver.md, "Linear
-    solver")."""
+    """Whether a new dense pattern (3D: more than ``_Pardiso.dense_row`` upper entries a row,
+    ordered by METIS) is analysed with the last fill-reducing ordering (PARDISO's iparm(5) = 1)
+    instead of computing one: METIS's ordering is about half of an analysis, and a few new
+    contact couplings hardly change what a good one is (docs/solver.md, "Linear solver"). 2D
+    patterns (minimum degree, a cheap ordering: 5% of a solve measured) keep computing theirs,
+    and their bits."""
     reorder_fill: float = 1.05
     """The ordering is computed afresh at the next analysis once the factor of an analysis on a
     reused ordering holds more than this times the entries per matrix entry of the analysis that
@@ -256,13 +262,14 @@ class LinearSolver:
         reuse = pattern.key == self._analysed and self.reuse_analysis
         self.analyses += not reuse
         ordering = None
+        keep = self.reuse_ordering and pattern.nnz > _Pardiso.dense_row * pattern.n
         if not reuse and self._restored_ordering is not None and pattern is self._restored_ordering[0]:
             ordering = self._restored_ordering[1]  # the analysis the restored solver had made
-        elif not reuse and self.reuse_ordering and self._ordering is not None and len(self._ordering) == pattern.n:
+        elif not reuse and keep and self._ordering is not None and len(self._ordering) == pattern.n:
             ordering = self._ordering
         self._restored_ordering = None
         try:
-            x = self._pardiso.solve(data, pattern.ia, pattern.ja, b, reuse, ordering)
+            x = self._pardiso.solve(data, pattern.ia, pattern.ja, b, reuse, ordering, keep)
         except self._pardiso.error as exc:  # a failed factorisation (zero pivot, ...)
             if not reuse:  # the handle was released for this pattern: nothing analysed to reuse
                 self._analysed = None
@@ -272,7 +279,7 @@ class LinearSolver:
             entries = self._pardiso.factor_entries()
             if ordering is None:
                 self.reorderings += 1
-                self._ordering, self._ordered_fill_of = self._pardiso.ordering, (entries, pattern.nnz)
+                self._ordering, self._ordered_fill_of = self._pardiso.ordering, (entries, pattern.nnz)  # None unless kept
             elif entries * self._ordered_fill_of[1] > self.reorder_fill * self._ordered_fill_of[0] * pattern.nnz:
                 self._ordering = None  # the next analysis orders afresh
         self.negative_eigenvalues = self._pardiso.negative_eigenvalues()
