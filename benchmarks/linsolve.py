@@ -29,7 +29,8 @@ max ||x - x_default|| / ||x_default||: the settings change round-off, not the ma
 Table 3 replays it with each new pattern ordered afresh and with the last ordering reused
 (``LinearSolver.reuse_ordering``, iparm(5) = 1), interleaved (every variant solves system i
 before any solves i + 1) and the faster of two passes kept: analyses, orderings computed,
-factorisations, the mean factor size and ms per solve.
+factorisations, the mean factor size and ms per solve. The ordering is reused for dense (3D)
+patterns only, so on a 2D design the two rows solve alike.
 
 Reading the numbers: the header prints the load average; other processes on the machine inflate
 the times (compare rows of one run, not runs). The solves, analyses, orderings and
