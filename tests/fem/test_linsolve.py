@@ -224,3 +224,75 @@ def test_pardiso_reports_the_inertia_of_a_symmetric_indefinite_matrix(negative):
     scipy_solver = LinearSolver("scipy")
     scipy_solver.solve(K, np.ones(n))
     assert scipy_solver.negative_eigenvalues is None
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_a_reused_ordering_solves_like_a_fresh_one(monkeypatch):
+    """New dense patterns (``dense_row`` lowered so that these grid matrices count as dense)
+    analysed with the ordering of an earlier analysis (iparm(5) = 1) against
+    each pattern ordered afresh: both direct solves of the same matrices, so the same solutions
+    to 100 x eps x cond(K) relative to |x|; the ordering was computed only where the fill grew
+    past ``reorder_fill`` (here at the first analysis and at most a few more)."""
+    from hydrojam.fem.linsolve import _Pardiso
+
+    monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
+    reused = LinearSolver("pardiso")
+    fresh = LinearSolver("pardiso")
+    fresh.reuse_ordering = False
+    for K, b in _contact_sequence(seed=4):
+        x, y = reused.solve(K, b), fresh.solve(K, b)
+        tol = 100 * np.finfo(float).eps * np.linalg.cond(K.toarray()) * np.linalg.norm(y)
+        assert np.linalg.norm(x - y) <= tol
+    assert reused.analyses == fresh.analyses > 2
+    assert fresh.reorderings == fresh.analyses
+    assert 1 <= reused.reorderings < reused.analyses
+    assert reused._pardiso._ps.iparm[4] == 0  # the user-ordering switch is off between analyses
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_an_ordering_whose_fill_grew_is_computed_afresh(monkeypatch):
+    """With ``reorder_fill`` below 1 every analysis on a reused ordering counts as filling too
+    much: the next analysis orders afresh, so orderings are computed at every other analysis
+    (``dense_row`` lowered: these grid matrices count as dense)."""
+    from hydrojam.fem.linsolve import _Pardiso
+
+    monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
+    solver = LinearSolver("pardiso")
+    solver.reorder_fill = 0.0
+    for K, b in _contact_sequence(seed=5):
+        solver.solve(K, b)
+    assert solver.reorderings == (solver.analyses + 1) // 2
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+@pytest.mark.parametrize("stop", [3, 11, 20])
+def test_a_restored_solver_goes_on_bit_for_bit(monkeypatch, stop):
+    """A solver restored from another's :attr:`LinearSolver.pattern` (the union pattern and the
+    orderings) solves the rest of a sequence with the same bits as the one that went on: the
+    same patterns analysed with the same orderings (``dense_row`` lowered: these grid matrices
+    count as dense, so orderings are reused)."""
+    from hydrojam.fem.linsolve import _Pardiso
+
+    monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
+    seq = _contact_sequence(seed=6)
+    first = LinearSolver("pardiso")
+    first.reorder_fill = 1.01  # orderings computed afresh now and then, so the state to carry varies
+    for K, b in seq[:stop]:
+        first.solve(K, b)
+    second = LinearSolver("pardiso")
+    second.reorder_fill = 1.01
+    second.restore_pattern(first.pattern)
+    for K, b in seq[stop:]:
+        assert np.array_equal(first.solve(K, b), second.solve(K, b))
+    assert first._ordering is None or np.array_equal(first._ordering, second._ordering)
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_a_sparse_2d_pattern_computes_its_own_ordering():
+    """Below ``dense_row`` (2D tri6-like patterns) every new pattern is ordered afresh, as
+    without ordering reuse: the same bits as a solver with ``reuse_ordering`` off."""
+    a, b_ = LinearSolver("pardiso"), LinearSolver("pardiso")
+    b_.reuse_ordering = False
+    for K, b in _contact_sequence(seed=7):
+        assert np.array_equal(a.solve(K, b), b_.solve(K, b))
+    assert a.reorderings == a.analyses and a._ordering is None

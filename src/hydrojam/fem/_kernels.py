@@ -140,3 +140,60 @@ def element_matrices_psd(A, dNdX, dV, slots, data, out, dims):  # pragma: no cov
     for e in range(ne):
         _element_matrix(A, dNdX, dV, e, K, AG, dims)
         _deposit(_project_psd(K), e, slots, data, out)
+
+
+# -- the linear solver's bookkeeping (fem/linsolve.py) ------------------------------------------
+
+
+@numba.njit(cache=True)
+def upper_positions(indptr, indices, uptr, uind):  # pragma: no cover - compiled
+    """For every entry of a CSR matrix (``indptr``, ``indices``; rows sorted) its position in the
+    upper-triangle pattern (``uptr``, ``uind``; sorted) of the same size: -2 for an entry below
+    the diagonal, -1 for an upper entry the pattern lacks. Returns (positions, missing count)."""
+    n = len(indptr) - 1
+    out = np.empty(len(indices), dtype=np.int64)
+    missing = 0
+    for i in range(n):
+        q, qend = uptr[i], uptr[i + 1]
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            if j < i:
+                out[k] = -2
+                continue
+            while q < qend and uind[q] < j:
+                q += 1
+            if q < qend and uind[q] == j:
+                out[k] = q
+            else:
+                out[k] = -1
+                missing += 1
+    return out, missing
+
+
+@numba.njit(cache=True)
+def merge_upper(indptr, indices, uptr, uind):  # pragma: no cover - compiled
+    """The union of an upper-triangle pattern (``uptr``, ``uind``) and the upper entries of a CSR
+    matrix (``indptr``, ``indices``), both rows sorted: its (indptr, indices), rows sorted."""
+    n = len(indptr) - 1
+    ptr = np.zeros(n + 1, dtype=np.int64)
+    ind = np.empty(len(uind) + len(indices), dtype=np.int64)
+    m = 0
+    for i in range(n):
+        k, kend = indptr[i], indptr[i + 1]
+        while k < kend and indices[k] < i:
+            k += 1
+        q, qend = uptr[i], uptr[i + 1]
+        while k < kend or q < qend:
+            if q >= qend or (k < kend and indices[k] < uind[q]):
+                ind[m] = indices[k]
+                k += 1
+            elif k >= kend or uind[q] < indices[k]:
+                ind[m] = uind[q]
+                q += 1
+            else:
+                ind[m] = uind[q]
+                k += 1
+                q += 1
+            m += 1
+        ptr[i + 1] = m
+    return ptr, ind[:m].copy()

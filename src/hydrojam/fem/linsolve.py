@@ -86,6 +86,8 @@ class _Pardiso:
              ctypes.byref(ctypes.c_int32(self._ps.mtype)),
              self._ps.iparm.ctypes.data_as(ctypes.POINTER(ctypes.c_int32)))
         self._ps.set_iparm(12, 0)  # CSR input, not transposed (what pypardiso's _check_A sets)
+        self.ordering: np.ndarray | None = None
+        """The fill-reducing permutation of the last analysis (PARDISO's perm)."""
         for i, value in self.settings.items():
             self._ps.iparm[i - 1] = value
         setter = getattr(self._ps.libmkl, "MKL_Set_Num_Threads", None)
@@ -93,18 +95,36 @@ class _Pardiso:
             setter(ctypes.c_int(threads))
 
     def solve(self, data: np.ndarray, ia: np.ndarray, ja: np.ndarray, b: np.ndarray,
-              reuse_analysis: bool) -> np.ndarray:
+              reuse_analysis: bool, ordering: np.ndarray | None = None, keep_ordering: bool = False) -> np.ndarray:
         """Solution for the upper triangle given as CSR ``data`` with 1-based int32 ``ia``
         (row pointers) and ``ja`` (sorted column indices): phase 23 (numerical factorisation +
-        solve) reusing the last analysis, or 13 (analysis too)."""
+        solve) reusing the last analysis, or 13 (analysis too). An analysis takes ``ordering``
+        (a fill-reducing permutation of these n unknowns, PARDISO's ``perm``) as its ordering
+        (iparm(5) = 1: only the symbolic factorisation runs) or, None, computes one (iparm(2)),
+        left in :attr:`ordering` where ``keep_ordering`` (iparm(5) = 2; else iparm(5) = 0 and
+        :attr:`ordering` None)."""
         ps = self._ps
         n = len(ia) - 1
         if b.shape != (n,):
             raise ValueError(f"right-hand side of shape {b.shape} for a matrix of {n} rows")
         b = np.ascontiguousarray(b, dtype=np.float64)
-        if not reuse_analysis and 2 in self.settings:
-            dense = len(ja) > self.dense_row * n
-            ps.iparm[1] = self.dense_ordering if dense else self.settings[2]
+        if not reuse_analysis:
+            if 2 in self.settings:
+                dense = len(ja) > self.dense_row * n
+                ps.iparm[1] = self.dense_ordering if dense else self.settings[2]
+            if ordering is not None:
+                if ordering.shape != (n,):
+                    raise ValueError(f"an ordering of {ordering.shape} for a matrix of {n} rows")
+                self.ordering = np.array(ordering, dtype=np.int32)
+                ps.iparm[4] = 1  # iparm(5) = 1: perm is the user's ordering
+            elif keep_ordering:
+                self.ordering = np.zeros(n, dtype=np.int32)
+                ps.iparm[4] = 2  # iparm(5) = 2: PARDISO writes the ordering it computed to perm
+            else:
+                self.ordering = None
+                ps.iparm[4] = 0
+            ps.perm = self.ordering if self.ordering is not None else np.zeros(0, dtype=np.int32)
+            ps.iparm[17] = -1  # iparm(18) < 0: report the factor's entries (overwritten by each report)
         x = np.zeros_like(b)
         err = ctypes.c_int32(0)
         i32, f64 = ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_double)
@@ -122,6 +142,7 @@ class _Pardiso:
             b.ctypes.data_as(f64), x.ctypes.data_as(f64),
             ctypes.byref(err),
         )
+        ps.iparm[4] = 0  # the numerical phases of later calls ignore perm either way
         if err.value != 0:
             raise self.error(err.value)
         return x
@@ -134,49 +155,47 @@ class _Pardiso:
         """Inertia of the last factorised matrix: its number of negative eigenvalues."""
         return int(self._ps.get_iparm(23))
 
+    def factor_entries(self) -> int:
+        """Entries of the last analysis's factor (iparm(18)): its fill."""
+        return int(self._ps.iparm[17])
+
 
 class _UpperPattern:
     """One sparsity pattern of the upper triangle that PARDISO sees (sorted CSR ``indptr``,
-    ``indices``): 1-based int32 ``ia``/``ja`` for PARDISO, ``key`` identifying it (the analysis
-    is reused while it stays), whether some row is empty (PARDISO would crash) and ``positions``,
-    the pattern with every entry's position + 1 as its value, which locates another pattern's
-    entries by one sparse elementwise product."""
+    ``indices``, kept 0-based for the bookkeeping kernels): 1-based int32 ``ia``/``ja`` for
+    PARDISO, ``key`` identifying it (the analysis is reused while it stays) and whether some row
+    is empty (PARDISO would crash)."""
 
     def __init__(self, indptr: np.ndarray, indices: np.ndarray):
         self.n, self.nnz = len(indptr) - 1, len(indices)
-        self.positions = sp.csr_matrix((np.arange(1.0, self.nnz + 1.0), indices, indptr), shape=(self.n, self.n))
-        self.ia = (indptr + 1).astype(np.int32)
-        self.ja = (indices + 1).astype(np.int32)
+        self.indptr = np.ascontiguousarray(indptr, dtype=np.int64)
+        self.indices = np.ascontiguousarray(indices, dtype=np.int64)
+        self.ia = (self.indptr + 1).astype(np.int32)
+        self.ja = (self.indices + 1).astype(np.int32)
         self.empty_row = not np.diff(indptr).all()
         self.key = (self.n, hash(self.ia.tobytes()), hash(self.ja.tobytes()))
-
-    def locate(self, pattern: sp.csr_matrix) -> np.ndarray | None:
-        """Positions in this pattern of the entries of ``pattern`` (sorted CSR, every value
-        non-zero) in their CSR order; None if some entry is not in this pattern."""
-        hit = self.positions.multiply(pattern)
-        if hit.nnz != pattern.nnz:
-            return None
-        return hit.tocsr().data.astype(np.int64) - 1
 
 
 class _Gather:
     """How a matrix of one sparsity pattern (sorted CSR ``indptr``, ``indices``) lands on an
-    :class:`_UpperPattern`: its upper triangle ``upper`` (a pattern, every value 1) holds its
-    values ``data[src]``; they are stored at ``dst`` of ``pattern``."""
+    :class:`_UpperPattern`: its upper entries ``data[src]`` are stored at ``dst`` of ``pattern``."""
 
     def __init__(self, indptr: np.ndarray, indices: np.ndarray):
         self.indptr, self.indices = indptr.copy(), indices.copy()
-        n = len(indptr) - 1
-        rows = np.repeat(np.arange(n), np.diff(indptr))
-        self.src = np.flatnonzero(indices >= rows)
-        upper_ptr = np.concatenate([[0], np.cumsum(np.bincount(rows[self.src], minlength=n))])
-        self.upper = sp.csr_matrix((np.ones(len(self.src)), indices[self.src], upper_ptr), shape=(n, n))
         self.pattern: _UpperPattern | None = None
+        self.src: np.ndarray | None = None
         self.dst: np.ndarray | None = None
 
     def matches(self, K: sp.csr_matrix) -> bool:
         """Whether K has this sparsity pattern."""
         return np.array_equal(self.indptr, K.indptr) and np.array_equal(self.indices, K.indices)
+
+
+def _kernels():
+    """fem/_kernels.py, imported on first use (``import hydrojam`` does not load numba)."""
+    from hydrojam.fem import _kernels as k
+
+    return k
 
 
 class LinearSolver:
@@ -188,6 +207,18 @@ class LinearSolver:
     ``HYDROJAM_SOLVER_THREADS`` (MKL threads, a positive integer; default 1) and
     ``HYDROJAM_REUSE_ANALYSIS`` (0 or 1; default 1) when constructed: ValueError otherwise.
     """
+
+    reuse_ordering: bool = True
+    """Whether a new dense pattern (3D: more than ``_Pardiso.dense_row`` upper entries a row,
+    ordered by METIS) is analysed with the last fill-reducing ordering (PARDISO's iparm(5) = 1)
+    instead of computing one: METIS's ordering is about half of an analysis, and a few new
+    contact couplings hardly change what a good one is (docs/solver.md, "Linear solver"). 2D
+    patterns (minimum degree, a cheap ordering: 5% of a solve measured) keep computing theirs,
+    and their bits."""
+    reorder_fill: float = 1.05
+    """The ordering is computed afresh at the next analysis once the factor of an analysis on a
+    reused ordering holds more than this times the entries per matrix entry of the analysis that
+    computed it."""
 
     def __init__(self, method: str = "auto"):
         if method not in ("auto", "pardiso", "scipy"):
@@ -206,13 +237,20 @@ class LinearSolver:
         self.negative_eigenvalues: int | None = None
         """Negative eigenvalues of the last matrix solved (PARDISO's inertia; a diagnostic for
         stability studies); None where the backend does not report it."""
+        self.reorderings = 0
+        self._ordering: np.ndarray | None = None
+        self._ordered_fill_of = (0, 1)  # factor and matrix entries of the analysis that computed it
+        self._restored_ordering: tuple[_UpperPattern, np.ndarray] | None = None  # (restored union, its ordering)
         self.threads = positive_int("HYDROJAM_SOLVER_THREADS", 1)
         self.reuse_analysis = flag("HYDROJAM_REUSE_ANALYSIS", True)
 
     def _solve_pardiso(self, K: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         if self._pardiso is None:
             self._pardiso = _Pardiso(self.threads)
-        pattern, data = self._on_union_pattern(K)
+        if not K.has_canonical_format:  # duplicates or unsorted: sum them as triu's COO route does
+            K = sp.triu(K, format="csr")
+            K.sort_indices()
+        pattern, data = self._on_union_pattern(self._gather(K), K)
         if pattern.empty_row:  # PARDISO would crash on it (pypardiso refuses it too)
             raise LinearSolveError("pardiso: matrix is singular (an empty row)")
         # The symbolic analysis (ordering) depends only on the sparsity pattern: reuse it while the
@@ -223,11 +261,27 @@ class LinearSolver:
             self._pardiso.release()
         reuse = pattern.key == self._analysed and self.reuse_analysis
         self.analyses += not reuse
+        ordering = None
+        keep = self.reuse_ordering and pattern.nnz > _Pardiso.dense_row * pattern.n
+        if not reuse and self._restored_ordering is not None and pattern is self._restored_ordering[0]:
+            ordering = self._restored_ordering[1]  # the analysis the restored solver had made
+        elif not reuse and keep and self._ordering is not None and len(self._ordering) == pattern.n:
+            ordering = self._ordering
+        self._restored_ordering = None
         try:
-            x = self._pardiso.solve(data, pattern.ia, pattern.ja, b, reuse)
+            x = self._pardiso.solve(data, pattern.ia, pattern.ja, b, reuse, ordering, keep)
         except self._pardiso.error as exc:  # a failed factorisation (zero pivot, ...)
+            if not reuse:  # the handle was released for this pattern: nothing analysed to reuse
+                self._analysed = None
             raise LinearSolveError(f"pardiso: {exc}") from exc
         self._analysed = pattern.key
+        if not reuse:
+            entries = self._pardiso.factor_entries()
+            if ordering is None:
+                self.reorderings += 1
+                self._ordering, self._ordered_fill_of = self._pardiso.ordering, (entries, pattern.nnz)  # None unless kept
+            elif entries * self._ordered_fill_of[1] > self.reorder_fill * self._ordered_fill_of[0] * pattern.nnz:
+                self._ordering = None  # the next analysis orders afresh
         self.negative_eigenvalues = self._pardiso.negative_eigenvalues()
         return x
 
@@ -252,45 +306,80 @@ class LinearSolver:
         self._gathers = [g] + self._gathers[: self._kept_patterns - 1]
         return g
 
-    def _on_union_pattern(self, K: sp.csr_matrix) -> tuple[_UpperPattern, np.ndarray]:
+    def _on_union_pattern(self, g: _Gather, K: sp.csr_matrix) -> tuple[_UpperPattern, np.ndarray]:
         """K's upper triangle stored on the union of the sparsity patterns seen lately (explicit
         zeros where it has no entry), so that contacts coming and going do not change the pattern
         and PARDISO's analysis is reused: the pattern and the values on it. The union restarts
         from K's own pattern when that fills less than 70% of it (contacts long gone would only
-        slow the factorisation). Without analysis reuse, K's own pattern."""
-        if not K.has_canonical_format:  # duplicates or unsorted: sum them as triu's COO route does
-            K = sp.triu(K, format="csr")
-            K.sort_indices()
-        g = self._gather(K)
+        slow the factorisation). Without analysis reuse, K's own pattern. Where K's entries lie
+        in the union and the merge of the two are compiled row-by-row walks of the sorted rows
+        (fem/_kernels.py): exact, so the same patterns as any other way of finding them."""
         u = self._union
         if g.pattern is None or g.pattern is not u:
-            nnz = g.upper.nnz
-            if self.reuse_analysis and u is not None and u.n == K.shape[0] and nnz >= 0.7 * u.nnz:
-                pos = u.locate(g.upper)
-                if pos is None:  # merge: the pattern of the sum of the two (positive values)
-                    merged = (u.positions + g.upper).tocsr()
-                    u = _UpperPattern(merged.indptr, merged.indices)
-                    pos = u.locate(g.upper)
-            else:
-                u, pos = _UpperPattern(g.upper.indptr, g.upper.indices), np.arange(nnz)
-            self._union, g.pattern, g.dst = u, u, pos
+            k = _kernels()
+            pos = None
+            if self.reuse_analysis and u is not None and u.n == K.shape[0]:
+                pos, missing = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
+                if np.count_nonzero(pos != -2) < 0.7 * u.nnz:
+                    pos = None  # restart from K's own pattern
+                elif missing:  # merge: the union of the two patterns
+                    u = _UpperPattern(*k.merge_upper(K.indptr, K.indices, u.indptr, u.indices))
+                    pos, _ = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
+            if pos is None:
+                u = _UpperPattern(*k.merge_upper(K.indptr, K.indices, np.zeros(K.shape[0] + 1, dtype=np.int64),
+                                                  np.zeros(0, dtype=np.int64)))
+                pos, _ = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
+            g.src = np.flatnonzero(pos >= 0)
+            self._union, g.pattern, g.dst = u, u, pos[g.src]
         data = np.zeros(u.nnz)
         data[g.dst] = K.data[g.src]
         return u, data
 
     @property
     def pattern(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """The union pattern that the next solve builds on (0-based CSR ``indptr``, ``indices``
-        of the upper triangle), or None: with :meth:`restore_pattern`, a new solver goes on as
-        this one would have (the same patterns, hence the same orderings and round-off)."""
+        """The state the next solve builds on, as two int64 arrays, or None: the union pattern
+        (0-based CSR ``indptr``, ``indices`` of the upper triangle) and, after the pattern's
+        ``indptr[-1]`` entries in ``indices``, the orderings (:attr:`reuse_ordering`): the one the
+        union was analysed with and the one the next new pattern would reuse, each as its length
+        and entries, then the fill that decides when to order afresh (factor entries, matrix
+        entries). With :meth:`restore_pattern`, a new solver goes on as this one would have (the
+        same patterns and orderings, hence the same round-off)."""
         if self._union is None:
             return None
-        return (self._union.ia - 1).astype(np.int64), (self._union.ja - 1).astype(np.int64)
+        tail = []
+        analysed = self._pardiso.ordering if self._pardiso is not None and self._analysed == self._union.key else None
+        for ordering in (analysed, self._ordering):
+            tail.append(np.array([0 if ordering is None else len(ordering)]))
+            if ordering is not None:
+                tail.append(ordering)
+        tail.append(np.array(self._ordered_fill_of, dtype=np.int64))
+        indices = np.concatenate([self._union.ja - 1] + tail).astype(np.int64)
+        return (self._union.ia - 1).astype(np.int64), indices
 
     def restore_pattern(self, pattern: tuple[np.ndarray, np.ndarray] | None) -> None:
-        """Start from ``pattern`` (another solver's :attr:`pattern`) as the union pattern."""
+        """Start from ``pattern`` (another solver's :attr:`pattern`): its union pattern, the
+        ordering its first analysis uses and the orderings state after it."""
         self._gathers = []
-        self._union = None if pattern is None else _UpperPattern(np.asarray(pattern[0]), np.asarray(pattern[1]))
+        self._restored_ordering = None
+        if pattern is None:
+            self._union = None
+            return
+        indptr, indices = np.asarray(pattern[0]), np.asarray(pattern[1])
+        nnz = int(indptr[-1])
+        self._union = _UpperPattern(indptr, indices[:nnz])
+        tail, orderings = indices[nnz:], []
+        for _ in range(2):
+            if not len(tail):
+                orderings.append(None)
+                continue
+            m = int(tail[0])
+            orderings.append(tail[1:1 + m].astype(np.int32) if m else None)
+            tail = tail[1 + m:]
+        if orderings[0] is not None and len(orderings[0]) == self._union.n:
+            self._restored_ordering = (self._union, orderings[0])
+        self._ordering = orderings[1]
+        if len(tail) == 2:
+            self._ordered_fill_of = (int(tail[0]), int(tail[1]))
 
     def solve(self, K: sp.spmatrix, b: np.ndarray) -> np.ndarray:
         """Solution u of K u = b; raises LinearSolveError if K is singular (the factorisation
