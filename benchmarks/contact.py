@@ -101,7 +101,7 @@ from hydrojam.fem.elements import element_for_meshio_type  # noqa: E402
 from hydrojam.fem.linsolve import LinearSolver  # noqa: E402
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean  # noqa: E402
 from hydrojam.fem.mesh import Mesh, merge  # noqa: E402
-from hydrojam.fem.solver import Problem, Timings, fixed, solve_path  # noqa: E402
+from hydrojam.fem import Problem, Timings, fixed, solve_path  # noqa: E402
 from hydrojam.fem.terms import TimedTerm, by_name  # noqa: E402
 from hydrojam.materials.swelling import constrained_swelling  # noqa: E402
 

@@ -74,7 +74,7 @@ from hydrojam.fem.elements import element_for_meshio_type  # noqa: E402
 from hydrojam.fem.linsolve import LinearSolver  # noqa: E402
 from hydrojam.materials.energies import Hydrogel, HydrogelParams  # noqa: E402
 from hydrojam.fem.mesh import Mesh  # noqa: E402
-from hydrojam.fem.solver import Dirichlet, PathOptions, Problem, fixed, solve_path  # noqa: E402
+from hydrojam.fem import Dirichlet, PathOptions, Problem, fixed, solve_path  # noqa: E402
 from hydrojam.materials.swelling import constrained_swelling  # noqa: E402
 
 PARAMS = HydrogelParams()
