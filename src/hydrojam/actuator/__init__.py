@@ -8,7 +8,7 @@ API, loaded on first use (the model needs gmsh and the IPC Toolkit).
 
 from __future__ import annotations
 
-import importlib
+from hydrojam._lazy import lazy_api
 
 _PUBLIC = {
     "hydrojam.actuator.design": ['Design', 'DesignError', 'default_design', 'design_from_dict', 'load_design', 'apply_overrides', 'write_design', 'design_to_toml'],
@@ -20,17 +20,4 @@ _PUBLIC = {
     "hydrojam.actuator.checkpoint": ['RunCheckpoint', 'CheckpointError', 'load_checkpoint', 'save_checkpoint'],
     "hydrojam.actuator.plots": ['plot_actuator', 'plot_angle_time'],
 }
-_MODULE_OF = {name: module for module, names in _PUBLIC.items() for name in names}
-
-__all__ = [name for names in _PUBLIC.values() for name in names]
-
-def __getattr__(name: str):
-    if name in _MODULE_OF:
-        value = getattr(importlib.import_module(_MODULE_OF[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

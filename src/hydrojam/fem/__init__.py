@@ -34,7 +34,7 @@ True
 
 from __future__ import annotations
 
-import importlib
+from hydrojam._lazy import lazy_api
 
 _PUBLIC = {
     "hydrojam.fem.elements": ["ReferenceElement", "element_for_meshio_type", "quadrature", "physical_gradients",
@@ -53,18 +53,4 @@ _PUBLIC = {
                             "negative_curvature"],
     "hydrojam.fem.path": ["PathOptions", "PathResult", "StepRecord", "PathCheckpoint", "solve_path"],
 }
-_MODULE_OF = {name: module for module, names in _PUBLIC.items() for name in names}
-
-__all__ = [name for names in _PUBLIC.values() for name in names]
-
-
-def __getattr__(name: str):
-    if name in _MODULE_OF:
-        value = getattr(importlib.import_module(_MODULE_OF[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'hydrojam.fem' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

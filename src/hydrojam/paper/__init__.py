@@ -5,7 +5,7 @@ table (``compare``). The names below are the public API, loaded on first use.
 
 from __future__ import annotations
 
-import importlib
+from hydrojam._lazy import lazy_api
 
 _PUBLIC = {
     "hydrojam.paper.reproduce": ['reproduce'],
@@ -15,17 +15,4 @@ _PUBLIC = {
     "hydrojam.paper.report": ['write_report', 'MODEL_DIFFERENCES'],
     "hydrojam.paper.compare": ['compare_points', 'PointComparison', 'CompareError'],
 }
-_MODULE_OF = {name: module for module, names in _PUBLIC.items() for name in names}
-
-__all__ = [name for names in _PUBLIC.values() for name in names]
-
-def __getattr__(name: str):
-    if name in _MODULE_OF:
-        value = getattr(importlib.import_module(_MODULE_OF[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())
