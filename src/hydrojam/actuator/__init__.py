@@ -13,7 +13,7 @@ from hydrojam._lazy import lazy_api
 _PUBLIC = {
     "hydrojam.actuator.design": ['Design', 'DesignError', 'default_design', 'design_from_dict', 'load_design', 'apply_overrides', 'write_design', 'design_to_toml'],
     "hydrojam.actuator.model": ['ActuatorModel', 'build_model', 'measure'],
-    "hydrojam.actuator.simulate": ['SimulationResult', 'simulate', 'RELEASE_ROUNDS', 'RELEASE_CAP'],
+    "hydrojam.actuator.simulate": ['SimulationResult', 'simulate', 'ACTUATOR_PATH'],
     "hydrojam.actuator.stimulus": ['StimulusPath', 'stimulus_path', 'TimedStimulusPath', 'timed_stimulus_path'],
     "hydrojam.actuator.metrics": ['Metric', 'metric', 'metric_names', 'bending_angle_deg', 'tip_displacement', 'curling_index', 'centreline_profile'],
     "hydrojam.actuator.results": ['ResultWriter'],
