@@ -35,7 +35,8 @@ def command_help(name: str, width: int = 100) -> str:
                            **settings)
     formatter = ctx.make_formatter()
     base.format_help(command, ctx, formatter)
-    return formatter.getvalue().rstrip() + "\n"
+    # a help text escapes a literal "[" from rich's markup with a backslash; the plain layout drops it
+    return formatter.getvalue().replace("\\[", "[").rstrip() + "\n"
 
 
 class CliHelp(SphinxDirective):

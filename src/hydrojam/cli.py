@@ -118,7 +118,7 @@ def swell(
     t_min: Optional[float] = typer.Option(None, "--t-min", help="Lowest temperature of a range [K] (default 275)."),
     t_max: Optional[float] = typer.Option(None, "--t-max", help="Highest temperature of a range [K] (default 315)."),
     t_step: Optional[float] = typer.Option(None, "--t-step", help="Temperature step of a range [K] (default 5)."),
-    mu: float = typer.Option(0.0, "--mu", help="Solvent chemical potential [k_B T]; 0 = pure water; must be <= 0."),
+    mu: float = typer.Option(0.0, "--mu", help="Solvent chemical potential \\[k_B T]; 0 = pure water; must be <= 0."),
     nnu: float = typer.Option(0.01, "--nnu", help="N nu: crosslink density times solvent molecule volume [-], in (0, 1]."),
     lambda0: float = typer.Option(1.5, "--lambda0", help="As-prepared swelling stretch lambda0 [-], > 1."),
     t0: float = typer.Option(300.0, "--t0", help="Temperature of the as-prepared state T0 [K]."),
