@@ -54,7 +54,7 @@ class IterationTrace:
             stab = next((t for t in terms if t.name == "stabilisation"), None)
             row["stabilisation"] = 0.0 if stab is None else float(getattr(stab, "scale", 0.0))
             contact = next((t for t in terms if t.name == "contact"), None)
-            inner = getattr(contact, "term", contact)
+            inner = getattr(contact, "_term", contact)  # inside a TimedTerm (simulate's clocks)
             if inner is not None and hasattr(inner, "_collisions"):
                 row["pairs"] = len(inner._collisions(xs)[1])
             dx, slope, tau = direction(terms, xs, hessians, Hff, hdiag, g, r, lm, *args, **kwargs)
@@ -63,17 +63,18 @@ class IterationTrace:
 
         def traced_line_search(terms, x, E, step, slope, shape, alpha, options):
             row["cap"] = alpha
-            a = alpha
-            trials = 0
-            while a >= options.min_alpha:  # the trials the line search makes (its own loop, counted)
-                trials += 1
-                xn = x + a * step
-                En = newton.sum_energy(terms, xn.reshape(shape))
-                if np.isfinite(En) and En <= E + options.armijo * a * slope + options.energy_slack * abs(E):
-                    break
-                a *= options.backtrack
-            out = line_search(terms, x, E, step, slope, shape, alpha, options)
-            row["trials"] = trials
+            energy, trials = newton.sum_energy, [0]
+
+            def counted(*args):  # one trial of the line search: one energy evaluation
+                trials[0] += 1
+                return energy(*args)
+
+            newton.sum_energy = counted
+            try:
+                out = line_search(terms, x, E, step, slope, shape, alpha, options)
+            finally:
+                newton.sum_energy = energy
+            row["trials"] = trials[0]
             row["dE"] = out[2] - E
             row["step_max"] = float(np.abs(out[0] * step).max())
             return out

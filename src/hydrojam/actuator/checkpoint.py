@@ -53,8 +53,6 @@ class ReleaseCheckpoint:
     """Wall time spent in the release so far [s]."""
     solver_pattern: tuple[np.ndarray, np.ndarray] | None = None
     """The release's linear solver's union pattern (as :attr:`PathCheckpoint.solver_pattern`)."""
-    round_rtol: float | None = None
-    """The next round's Newton tolerance where the rounds are inexact (a variant); None: rtol."""
     timings: Timings | None = None
     """The release's Newton work so far (its rounds' and direct attempt's :class:`Timings`, failed
     ones included); None in a checkpoint written before it was kept."""
@@ -135,7 +133,6 @@ def save_checkpoint(path: str | Path, ck: RunCheckpoint) -> None:
         "release": None if ck.release is None else {
             "iterations": ck.release.iterations, "scale": ck.release.scale, "failed": ck.release.failed,
             "rounds": [list(r) for r in ck.release.rounds], "seconds": ck.release.seconds,
-            "round_rtol": ck.release.round_rtol,
             "timings": None if ck.release.timings is None else dataclasses.asdict(ck.release.timings)},
         "elapsed_s": ck.elapsed_s,
         "clocks": ck.clocks,
@@ -199,7 +196,6 @@ def load_checkpoint(path: str | Path, design, shape: tuple[int, int]) -> RunChec
     release = None if r is None else ReleaseCheckpoint(
         release_x, int(r["iterations"]), float(r["scale"]), bool(r["failed"]),
         tuple((float(a), int(b), bool(c)) for a, b, c in r["rounds"]), float(r["seconds"]), patterns["release"],
-        None if r.get("round_rtol") is None else float(r["round_rtol"]),
         None if r.get("timings") is None else Timings(**r["timings"]))
     return RunCheckpoint(meta["design_digest"], tuple(meta["states"]), xs, path_ck, release,
                          float(meta["elapsed_s"]), dict(meta["clocks"]), float(meta["energy_ratio"]),

@@ -297,9 +297,9 @@ def simulate(
             if e_el > 0:
                 held = rec.damped_energy if options.release.each_step else stab.energy(x)
                 ratio[0] = max(ratio[0], held / e_el)
-        released_here = stab is None or rec.release_rounds > 0 or options.release.each_step
-        record(s, x, rec.iterations, rec.negative_eigenvalues,
-               (rec.residual, rec.tolerance) if released_here and rec.tolerance is not None else None)
+        # a stabilised state (released only at s = 1): its physics' residual is measured in record
+        equilibrium = stab is None or options.release.each_step
+        record(s, x, rec.iterations, rec.negative_eigenvalues, (rec.residual, rec.tolerance) if equilibrium else None)
 
     def attempt(s, ds, res):
         if on_progress is not None:
@@ -368,7 +368,7 @@ def _release(problem, stab, x, options: PathOptions, terms, timings: Timings,
     def round_done(st: ReleaseState) -> None:
         if on_round is not None:
             on_round(ReleaseCheckpoint(st.x, st.iterations, st.scale, st.failed, st.rounds, 0.0, st.solver_pattern,
-                                       None, st.timings))
+                                       st.timings))
 
     rel = release(terms(1.0), stab, x, problem.free_mask(), problem.force_scale, options.newton, solver,
                   options.release, 1.0, options.unphysical_terms, state, round_done)

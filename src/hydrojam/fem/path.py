@@ -305,19 +305,21 @@ def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, 
             spent.add(resume.timings)
     cap = options.cap * base_scale
 
-    def result(ok):
-        r, tol = physical_residual(terms, x, free, force_scale, newton, unphysical)
+    def result(ok, checked=None):
+        r, tol = checked or physical_residual(terms, x, free, force_scale, newton, unphysical)
         return ReleaseResult(x, its, ok, rounds, r, tol, spent)
 
-    def equilibrium(roundoff: bool = False) -> bool:
-        """The physics alone within its tolerance at x; or, after a round that stopped at the
-        energy's round-off (``roundoff``), no viscous force above it left: the physics is then at
-        its round-off too."""
+    def equilibrium(roundoff: bool = False):
+        """(residual, tolerance) of the physics at x where it is an equilibrium: within its
+        tolerance, or, after a round that stopped at the energy's round-off (``roundoff``), with no
+        viscous force above it left (the physics is then at its round-off too); None otherwise."""
         r, tol = physical_residual(terms, x, free, force_scale, newton, unphysical)
-        return r <= tol or (roundoff and float(np.linalg.norm(damped.gradient(x)[free])) <= tol)
+        if r <= tol or (roundoff and float(np.linalg.norm(damped.gradient(x)[free])) <= tol):
+            return r, tol
+        return None
 
-    if resume is None and equilibrium():
-        return result(True)
+    if resume is None and (checked := equilibrium()):
+        return result(True, checked)
     for _ in range(options.max_rounds - len(rounds)):
         damped.scale = scale
         for t in terms:  # each round is a step: the damping centred and lagged quantities frozen at its start
@@ -337,8 +339,8 @@ def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, 
             failed = True
         else:
             x = res.x
-            if equilibrium(res.status is not NewtonStatus.CONVERGED):
-                return result(True)
+            if checked := equilibrium(res.status is not NewtonStatus.CONVERGED):
+                return result(True, checked)
             if (not failed or res.iterations <= options.easy_after_failure
                     or (past_cap and _held_since_failure(rounds, options.cap_backoff_rounds))):
                 scale = max(scale / options.lower, options.floor * base_scale)
@@ -347,6 +349,12 @@ def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, 
             on_round(ReleaseState(np.array(x, dtype=float), its, scale, failed, tuple(rounds), solver.pattern,
                                   dataclasses.replace(spent)))
     return result(False)
+
+
+def _safe_move(terms, x: np.ndarray, step: np.ndarray) -> bool:
+    """Whether the move from x by ``step`` (both (n, d) [mm]) is collision-free in full (no term's
+    step cap, contact CCD, cuts it) and lands on a state of finite energy (admissible)."""
+    return min([1.0] + [t.max_step(x, step) for t in terms]) >= 1.0 and np.isfinite(sum_energy(terms, x + step))
 
 
 def _predictor(problem, terms, x, x_bc, free, solver):
@@ -370,10 +378,7 @@ def _predictor(problem, terms, x, x_bc, free, solver):
         trial = x_bc.copy()
         if scale:
             trial[fidx] += scale * du
-        step = (trial - x).reshape(shape)
-        if min([1.0] + [t.max_step(xs, step) for t in terms]) < 1.0:
-            continue
-        if np.isfinite(sum_energy(terms, trial.reshape(shape))):
+        if _safe_move(terms, xs, (trial - x).reshape(shape)):
             return trial
     return None
 
@@ -390,12 +395,8 @@ def _extrapolated(terms, x, x_start, previous, ds, free, shape):
         return x_start
     xs = x_start.reshape(shape)
     for scale in (1.0, 0.5, 0.25):
-        step = (scale * delta).reshape(shape)
-        if min([1.0] + [t.max_step(xs, step) for t in terms]) < 1.0:
-            continue
-        trial = x_start + scale * delta
-        if np.isfinite(sum_energy(terms, trial.reshape(shape))):
-            return trial
+        if _safe_move(terms, xs, (scale * delta).reshape(shape)):
+            return x_start + scale * delta
     return x_start
 
 
@@ -429,10 +430,9 @@ def settle(terms, x: np.ndarray, free: np.ndarray, force_scale: float, options: 
     negative = None
     for k in range(tries):
         nudge = options.settle_perturbation * 10.0 ** k * size * rng.standard_normal(xs.shape) * mask
-        start = xs + nudge
-        if not np.isfinite(sum_energy(terms, start)) or min([1.0] + [t.max_step(xs, nudge) for t in terms]) < 1.0:
+        if not _safe_move(terms, xs, nudge):
             continue
-        res = minimize(terms, start, free, force_scale, newton, solver)
+        res = minimize(terms, xs + nudge, free, force_scale, newton, solver)
         spent.add(res.timings)
         its += res.iterations
         if not res.converged:
@@ -547,6 +547,11 @@ def solve_path(
             x = x_new.ravel().copy()
             negative = None
             its = res.iterations + (0 if rel is None else rel.iterations)
+            if rel is not None:
+                residual, tolerance = rel.residual, rel.tolerance
+            else:  # undamped, or a stabilised state whose residual includes the viscous force
+                tolerance = physical_residual(terms, x_new, free, problem.force_scale, options.newton, ())[1]
+                residual = res.residual
             if checker is not None:
                 physical = [t for t in terms if t.name not in options.unphysical_terms]
                 negative = negative_curvature(physical, x_new, free, checker, options.newton)
@@ -558,16 +563,9 @@ def solve_path(
                     if settled.negative == 0:
                         x_new, negative = settled.x, 0
                         x = x_new.ravel().copy()
-                        rel = dataclasses.replace(rel, x=x_new, residual=settled.residual,
-                                                  tolerance=settled.tolerance) if rel is not None else rel
-            if rel is None:
-                residual, tolerance = physical_residual(terms, x_new, free, problem.force_scale, options.newton,
-                                                        options.unphysical_terms if damped is None else ())
-                if damped is not None:  # a stabilised state: its residual includes the viscous force
-                    residual = res.residual
-            else:
-                residual, tolerance = rel.residual, rel.tolerance
-            rec = StepRecord(s, ds, its, residual, res.energy if rel is None else sum_energy(terms, x_new),
+                        residual, tolerance = settled.residual, settled.tolerance
+            energy = res.energy if x_new is res.x else sum_energy(terms, x_new)
+            rec = StepRecord(s, ds, its, residual, energy,
                              time.perf_counter() - t0, negative, None if damped is None else damped.scale / base,
                              failed_here, tolerance, 0 if rel is None else len(rel.rounds),
                              0 if rel is None else rel.iterations, damped_energy)
