@@ -50,7 +50,7 @@ DESIGNS = {"one_layer": ["particle_layers=1"], "default": [],
            "near_prepared": ["particle_layers=1", "mesh.size=4", "stimulus.mu=-0.0343", "stimulus.temperature=300"],
            "default_3d": ["dimension=3", "mesh.size=4"],
            "one_layer_3d": ["dimension=3", "particle_layers=1", "mesh.size=4"],
-           "proxy_3d": ["dimension=3", "particle_layers=3", "mesh.size=5"]}
+           "proxy_3d": ["dimension=3", "particle_layers=2", "mesh.size=4"]}
 
 #: variant name -> keyword arguments of simulate (``options`` replaces fields of ACTUATOR_PATH)
 VARIANTS = {

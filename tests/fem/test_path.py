@@ -2,6 +2,7 @@
 detector against problems whose critical load is known analytically, and stable problems on
 which it must stay silent."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -236,3 +237,57 @@ def test_the_check_can_be_switched_off():
     res = solve_path(problem, PathOptions(stability_check=False))
     assert res.converged and all(h.negative_eigenvalues is None for h in res.history)
     assert res.unstable_at_s is None
+
+
+
+
+class Piece(EnergyTerm):
+    """``-a u^2/2 + c u^4/4`` [mJ] on DOF 0 of x (n, 1) [mm], projected to a non-negative
+    curvature alone, as an element Hessian is. A concave piece (a = 1) and a quartic one (c = 1)
+    sum to a saddle at u = 0 and stable minima at u = +-1 of curvature 2; there the projected
+    Hessian (3, the concave piece dropped) overestimates the true one, and projected Newton
+    converges only linearly, at the rate 1/3 per iteration."""
+
+    def __init__(self, name, a=0.0, c=0.0):
+        self.name, self.a, self.c = name, a, c
+
+    def energy(self, x):
+        u = float(x[0, 0])
+        return -0.5 * self.a * u**2 + 0.25 * self.c * u**4
+
+    def gradient(self, x):
+        g = np.zeros(x.size)
+        u = float(x[0, 0])
+        g[0] = -self.a * u + self.c * u**3
+        return g
+
+    def hessian(self, x, project=False):
+        u = float(x[0, 0])
+        h = -self.a + 3 * self.c * u * u
+        H = np.zeros((x.size, x.size))
+        H[0, 0] = max(h, 0.0) if project else h
+        return sp.csr_matrix(H)
+
+
+def test_a_saddle_is_settled_to_the_analytic_minimum_with_a_full_newton_finish():
+    """``settle`` from the saddle u = 0 of two :class:`Piece` terms reaches a minimum u = +-1,
+    within the residual over the curvature 2, reported stable; its full-Newton finish takes fewer
+    iterations than projected Newton from the same nudge (linear at the rate 1/3)."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.newton import minimize
+    from hydrojam.fem.path import settle
+
+    terms = [Piece("concave", a=1.0), Piece("quartic", c=1.0)]
+    x = np.array([[0.0], [1.0]])  # DOF 1 held: it gives the bounding box its size, 1 mm
+    free = np.array([True, False])
+    options = PathOptions()
+    out = settle(terms, x, free, 1.0, options, LinearSolver(), LinearSolver())
+    assert out.negative == 0
+    assert out.residual <= out.tolerance
+    assert abs(abs(out.x[0, 0]) - 1.0) <= out.residual / 2.0 * 1.5
+    # settle's first nudge: the seeded vector of settle_perturbation x the bounding box diagonal
+    nudge = options.settle_perturbation * np.random.default_rng(0).standard_normal(x.shape) * free.reshape(x.shape)
+    projected = minimize(terms, x + nudge, free, 1.0,
+                         dataclasses.replace(options.newton, projection="always", max_iter=400), LinearSolver())
+    assert projected.converged and abs(abs(projected.x[0, 0]) - 1.0) <= projected.residual / 2.0 * 1.5
+    assert out.iterations < projected.iterations

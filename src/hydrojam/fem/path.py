@@ -89,6 +89,10 @@ class PathOptions:
     settle_perturbation: float = 1e-5
     """Size of the seeded random nudge off a saddle, relative to the reference's bounding box
     diagonal (grown 10x for each further try, three tries)."""
+    settle_escape: float = 1e3
+    """The projected descent off a saddle stops at this x the Newton tolerance, and the full
+    Newton (``newton.projection``) converges from there: projected Hessians converge only
+    linearly, and an energy descent that has left the saddle's energy cannot return to it."""
     damped_term: str = "stabilisation"
     """Name of the term whose ``scale`` (a viscous stabilisation's) the adaptive damping sets."""
     damping_growth: float = 10.0
@@ -417,13 +421,15 @@ def settle(terms, x: np.ndarray, free: np.ndarray, force_scale: float, options: 
            solver: LinearSolver, checker: LinearSolver, tries: int = 3) -> Settled:
     """Move an unstable equilibrium x (n, d) [mm] of ``terms`` (the physics) off its saddle: nudge
     the free DOFs by a seeded random vector of ``options.settle_perturbation`` x the bounding box
-    diagonal and minimise with every element and contact Hessian projected to positive
-    semi-definite (``projection="always"``, a descent that a saddle does not attract), up to
+    diagonal, minimise with every element and contact Hessian projected to positive
+    semi-definite (``projection="always"``, a descent that a saddle does not attract) to
+    ``options.settle_escape`` x the tolerance, then converge with the full Newton, up to
     ``tries`` times with a 10x larger nudge each; the result is the first stable state reached,
     or x itself with its count where none was."""
     xs = np.asarray(x, dtype=float)
     size = float(np.linalg.norm(xs.max(axis=0) - xs.min(axis=0)))
-    newton = dataclasses.replace(options.newton, projection="always")
+    escape = dataclasses.replace(options.newton, projection="always",
+                                 rtol=options.newton.rtol * options.settle_escape)
     mask = free.reshape(xs.shape)
     rng = np.random.default_rng(0)
     spent, its = Timings(), 0
@@ -432,9 +438,13 @@ def settle(terms, x: np.ndarray, free: np.ndarray, force_scale: float, options: 
         nudge = options.settle_perturbation * 10.0 ** k * size * rng.standard_normal(xs.shape) * mask
         if not _safe_move(terms, xs, nudge):
             continue
-        res = minimize(terms, xs + nudge, free, force_scale, newton, solver)
+        res = minimize(terms, xs + nudge, free, force_scale, escape, solver)
         spent.add(res.timings)
         its += res.iterations
+        if res.converged:
+            res = minimize(terms, res.x, free, force_scale, options.newton, solver)
+            spent.add(res.timings)
+            its += res.iterations
         if not res.converged:
             continue
         negative = negative_curvature(terms, res.x, free, checker, options.newton)
