@@ -32,6 +32,7 @@ from hydrojam.actuator.metrics import (
     packing_fraction,
     polygon_area,
     tip_displacement,
+    unwrapped_angle_deg,
 )
 
 L = 60.0  # actuator length [mm]
@@ -218,7 +219,18 @@ def test_curled_arc_unwraps_beyond_half_turn(rng):
     assert curling_index(prof) == pytest.approx(0.5, abs=1e-3)
     face = end_face(5, rng, length=length)
     wrapped = np.degrees(length / R) - 360.0
-    assert bending_angle_deg(face, pure_bending(face, R)) == pytest.approx(wrapped, abs=1e-10)
+    angle = bending_angle_deg(face, pure_bending(face, R))
+    assert angle == pytest.approx(wrapped, abs=1e-10)
+    # the state metric: the turn picked by the centreline's unwrapped rotation at the free end
+    end = np.degrees(prof.rotation[-1])
+    assert unwrapped_angle_deg(angle, end) == pytest.approx(np.degrees(length / R), abs=1e-10)
+
+
+@pytest.mark.parametrize("angle, near, expected", [(-170.4, 180.0, 189.6), (10.0, 5.0, 10.0), (170.0, -175.0, -190.0),
+                                                   (179.0, 900.0, 899.0)])
+def test_an_angle_is_unwrapped_to_the_turn_nearest_an_estimate(angle, near, expected):
+    """The face's rotation modulo 360 deg, moved by whole turns to the one nearest the estimate."""
+    assert unwrapped_angle_deg(angle, near) == pytest.approx(expected, abs=1e-9)
 
 
 @pytest.mark.parametrize("grid", ["graded", "alternating"])

@@ -63,8 +63,8 @@ class Metric:
 
 #: the metrics measured on a state, in the order of metrics.json and history.csv
 STATE_METRICS: tuple[Metric, ...] = (
-    Metric("bending_angle_deg", "deg", "free-end face rotation, positive toward the strain-limit side",
-           float, "state", "θ"),
+    Metric("bending_angle_deg", "deg", "free-end face rotation, positive toward the strain-limit side "
+           "(past 180 for a curled actuator)", float, "state", "θ"),
     Metric("tip_dx_mm", "mm", "free-end face centroid displacement along x", float, "state", "δx"),
     Metric("tip_dz_mm", "mm", "free-end face centroid displacement along z", float, "state", "δz"),
     Metric("curling_index", "-", "share of the centreline rotation in the clamp half (None while straight)",
@@ -444,6 +444,29 @@ def centreline_points(arc_length, rotation, start=(0.0, 0.0)) -> np.ndarray:
     chord = np.diff(s) * np.sinc(turning / (2.0 * np.pi))
     steps = np.column_stack((-np.sin(mean), -np.cos(mean))) * chord[:, None]  # clockwise from -z
     return np.asarray(start, dtype=float) + np.vstack((np.zeros(2), np.cumsum(steps, axis=0)))
+
+
+def unwrapped_angle_deg(angle: float, near: float) -> float:
+    """``angle`` [deg] shifted by whole turns to the value nearest ``near`` [deg].
+
+    A face's rotation is known only modulo 360 degrees (:func:`face_rotation_deg` reports it in
+    (-180, 180]); the centreline's rotation at the free end, unwrapped along the line
+    (:class:`CentrelineProfile`), tells the turns: an actuator curled to 190 degrees reads 190,
+    not -170.
+
+    Parameters
+    ----------
+    angle : float
+        The face's rotation [deg], any branch.
+    near : float
+        A continuous estimate of the same rotation [deg], within 180 degrees of the true value.
+
+    Returns
+    -------
+    float
+        ``angle + 360 k`` [deg], k the integer that brings it nearest ``near``.
+    """
+    return float(angle + 360.0 * np.round((near - angle) / 360.0))
 
 
 def curling_index(profile: CentrelineProfile) -> float | None:

@@ -30,6 +30,7 @@ from hydrojam.actuator.metrics import (
     packing_fraction,
     polygon_area,
     tip_displacement,
+    unwrapped_angle_deg,
 )
 from hydrojam.fem.problem import Problem, fixed
 from hydrojam.actuator.stimulus import (
@@ -270,6 +271,8 @@ def _state_metrics(model: ActuatorModel, angle: float, dx: float, dz: float, pro
     """The state metrics in the registry's order from their measured pieces (2D areas [mm^2] or
     3D volumes [mm^3] of the particles, their as-prepared total and the cavity)."""
     ci = curling_index(profile)
+    # the face's rotation is known modulo a turn: the centreline's, unwrapped, picks the turn
+    angle = unwrapped_angle_deg(angle, float(np.degrees(profile.rotation[-1])))
     values = {
         "bending_angle_deg": float(angle) + 0.0,  # + 0.0: no "-0.0" in results
         "tip_dx_mm": float(dx) + 0.0,
