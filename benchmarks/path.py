@@ -6,7 +6,8 @@ Run:  .venv/bin/python benchmarks/path.py [--variant NAME ...] [--design one_lay
                                           [--set friction=0.01 ...] [--steps]
 
 For every variant and design it prints Newton iterations on the load path and in the release of
-the stabilisation (with its rounds: damping scale and iterations), wall time, whether the final
+the stabilisation (with its rounds: damping scale and iterations), all Newton iterations (the
+failed attempts' and the settle's too: the cost), wall time, whether the final
 state is an equilibrium without stabilisation ("released"), bending angle and tip. ``--seeds``
 runs round-off replicas instead of a design: the stimulus path's interior knots jittered by 1e-7 x a
 standard normal (a test harness, not a library feature), since one run's angle of the default
@@ -64,13 +65,21 @@ VARIANTS = {
     "settle_every": {"options": {"settle": "every"}},
     "settle_never": {"options": {"settle": "never"}},
     "path_ds_0.1_0.2": {"options": {"ds0": 0.1, "ds_max": 0.2}},
+    # the Marquardt damping decays to 1e-12 of diag|H| before it drops to 0 (instead of 1e-6)
+    "lm_cutoff_1e-12": {"options": {"newton": {"marquardt_cutoff": 1e-12}}},
+    "lm_decay_3": {"options": {"newton": {"marquardt_decay": 3.0}}},
+    "rtol_1e-5": {"options": {"newton": {"rtol": 1e-5}}},
 }
 
 
 def _simulate_kwargs(variant: str) -> dict:
     kw = dict(VARIANTS[variant])
     if "options" in kw:
-        kw["options"] = dataclasses.replace(simulate_module.ACTUATOR_PATH, **kw["options"])
+        fields = dict(kw["options"])
+        base = simulate_module.ACTUATOR_PATH
+        if isinstance(fields.get("newton"), dict):  # fields of the path's NewtonOptions
+            fields["newton"] = dataclasses.replace(base.newton, **fields["newton"])
+        kw["options"] = dataclasses.replace(base, **fields)
     return kw
 
 
@@ -146,7 +155,7 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
                                                for r in rounds), flush=True)
     label = label_of(seed, replica)
     return [design, variant, label, str(res.newton_iterations - release_its),
-            str(release_its), str(n_rounds), f"{wall:.1f}", str(m["stabilisation_released"]),
+            str(release_its), str(n_rounds), str(res.timings["newton_iterations"]), f"{wall:.1f}", str(m["stabilisation_released"]),
             f"{m['bending_angle_deg']:.2f}", f"({m['tip_dx_mm']:.1f}, {m['tip_dz_mm']:.1f})"]
 
 
@@ -177,12 +186,13 @@ def main(argv=None) -> int:
             print("  " + " | ".join(row), flush=True)
     print_load()
     print()
-    print(table(["design", "variant", "seed", "path its", "release its", "rounds", "wall [s]", "released",
+    print(table(["design", "variant", "seed", "path its", "release its", "rounds", "all its", "wall [s]", "released",
                  "angle [deg]", "tip (dx, dz) [mm]"], rows, left=3))
     if len(rows) > len({(r[0], r[1]) for r in rows}):
         print()
         print(table(["design", "variant", "runs", "angle mean ± std [deg]", "angle range", "dx mean ± std [mm]",
-                     "dz mean ± std [mm]", "iterations mean ± std"], _spreads(rows), left=2))
+                     "dz mean ± std [mm]", "iterations mean ± std", "all iterations mean ± std"],
+                    _spreads(rows), left=2))
     return 0
 
 
@@ -193,11 +203,13 @@ def _spreads(rows: list[list[str]]) -> list[list[str]]:
     out = []
     for key in dict.fromkeys((r[0], r[1]) for r in rows):
         sel = [r for r in rows if (r[0], r[1]) == key]
-        ang = [float(r[8]) for r in sel]
-        dx = [float(r[9].strip("()").split(",")[0]) for r in sel]
-        dz = [float(r[9].strip("()").split(",")[1]) for r in sel]
+        ang = [float(r[9]) for r in sel]
+        dx = [float(r[10].strip("()").split(",")[0]) for r in sel]
+        dz = [float(r[10].strip("()").split(",")[1]) for r in sel]
         its = [int(r[3]) + int(r[4]) for r in sel]
-        out.append([*key, str(len(sel)), ms(ang), f"{min(ang):.1f}-{max(ang):.1f}", ms(dx), ms(dz), ms(its)])
+        every = [int(r[6]) for r in sel]
+        out.append([*key, str(len(sel)), ms(ang), f"{min(ang):.1f}-{max(ang):.1f}", ms(dx), ms(dz), ms(its),
+                    ms(every)])
     return out
 
 

@@ -38,14 +38,6 @@ ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=3
                             newton=NewtonOptions(max_iter=200), damping_start=0.0,
                             damping_relax_after=1)
 
-
-
-
-
-
-
-
-
 #: load-path settings with a time-resolved stimulus: steps of at most 0.025 in s from the first
 #: (40 or more states), so that theta(t) is resolved (s is spread over the particles' swelling
 #: and the log time) and no step is long against the particles' tau (their water relaxes within

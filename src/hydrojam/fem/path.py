@@ -38,17 +38,17 @@ class ReleaseOptions:
     growth: float = 10.0
     """Factor on the damping after a failed round (up to ``cap``)."""
     easy_after_failure: int = 20
-    """After a failed round the damping is lowered again only after a round of at most this many
-    Newton iterations: a state still travelling would otherwise alternate between a round that
-    converges and a lower one that fails."""
+    """After a failed round the damping is lowered again after a round of at most this many Newton
+    iterations, or after ``backoff_rounds`` x 2^(f-1) converged rounds in a row at its level (f:
+    the failed rounds so far): a state still travelling would otherwise alternate between a round
+    that converges and a lower one that fails, or creep at a high damping for many rounds."""
+    backoff_rounds: int = 4
+    """See ``easy_after_failure``."""
     cap: float = 1e3
     """Highest damping, relative to the damped term's scale at the start of the path. A round that
-    runs out of iterations there is kept as progress (its last iterate is admissible and lower in
-    energy), and from then on the damping is also lowered after ``cap_backoff_rounds`` x 2^(f-1)
-    converged rounds in a row at its level (f: the failed rounds so far); any other failure there
-    (no admissible descent) ends the release, not released."""
-    cap_backoff_rounds: int = 4
-    """See ``cap``."""
+    runs out of iterations is kept as progress at any damping (its last iterate is admissible and
+    lower in energy: the next round is centred there); any other failure at the cap (no
+    admissible descent) ends the release, not released."""
     floor: float = 1e-8
     """Lowest damping, relative to the damped term's scale at the start of the path."""
 
@@ -332,12 +332,11 @@ def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, 
         its += res.iterations
         spent.add(res.timings)
         rounds.append((scale, res.iterations, res.converged))
-        past_cap = any(not ok and sc >= cap * (1 - 1e-12) for sc, _, ok in rounds)
         if not res.converged:
             ran_out = res.status is NewtonStatus.MAX_ITERATIONS
             if scale >= cap * (1 - 1e-12) and not ran_out:
                 return result(False)
-            if past_cap and ran_out:
+            if ran_out:
                 x = res.x
             scale = min(scale * options.growth, cap)
             failed = True
@@ -346,7 +345,7 @@ def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, 
             if checked := equilibrium(res.status is not NewtonStatus.CONVERGED):
                 return result(True, checked)
             if (not failed or res.iterations <= options.easy_after_failure
-                    or (past_cap and _held_since_failure(rounds, options.cap_backoff_rounds))):
+                    or _held_since_failure(rounds, options.backoff_rounds)):
                 scale = max(scale / options.lower, options.floor * base_scale)
                 failed = False
         if on_round is not None:
