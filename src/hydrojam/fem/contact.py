@@ -96,10 +96,32 @@ def default_settings(
     kappa: float | None = None,
     **kw,
 ) -> ContactSettings:
-    """Principled defaults: dhat = 1% of the mean collision-edge length (mesh-relative, so the
-    barrier layer is a small fraction of an element), kappa = 10 x the largest shear modulus of
-    the bodies in contact [MPa], so that contact pressures of the order of the material's own
-    stresses are carried at gaps well inside dhat. Both overridable."""
+    """Contact settings with principled defaults for dhat and kappa.
+
+    dhat = 1% of the mean collision-edge length (mesh-relative, so the barrier layer is a small
+    fraction of an element), kappa = 10 x the largest shear modulus of the bodies in contact, so
+    that contact pressures of the order of the material's own stresses are carried at gaps well
+    inside dhat. Both overridable.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        The boundary facets in contact.
+    shear_modulus : float
+        The largest shear modulus of the bodies in contact [MPa].
+    dhat : float, optional
+        Activation distance [mm] (default: as above).
+    kappa : float, optional
+        Barrier stiffness [MPa] (default: as above).
+    **kw
+        Further fields of :class:`ContactSettings`.
+
+    Returns
+    -------
+    ContactSettings
+    """
     if dhat is None:
         prims = collision_primitives(facets, X.shape[1])
         edges = prims if X.shape[1] == 2 else np.concatenate([prims[:, [0, 1]], prims[:, [1, 2]], prims[:, [2, 0]]])

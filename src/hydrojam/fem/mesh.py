@@ -418,7 +418,21 @@ def merge(parts: dict[str, Mesh]) -> Mesh:
     """Separate meshes side by side in one Mesh (no node is shared: separate bodies).
 
     Groups are renamed ``"<part>"`` (all cells of a part), ``"<part>/<group>"`` for each cell and
-    facet group. All parts must have the same cell type.
+    facet group.
+
+    Parameters
+    ----------
+    parts : dict of str to Mesh
+        Part name -> mesh [mm]; all of the same cell type.
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    ValueError
+        For parts of different cell types.
     """
     types = {m.cell_type for m in parts.values()}
     if len(types) != 1:

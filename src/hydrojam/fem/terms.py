@@ -132,10 +132,26 @@ def nodal_areas(reference: np.ndarray, facets: np.ndarray, facet_type: str | Non
 
 
 def surface_load(reference: np.ndarray, facets: np.ndarray, traction, facet_type: str | None = None) -> LinearTerm:
-    """Dead traction ``traction`` [MPa] (length d) on reference boundary facets (nf, nfn).
+    """Dead traction on reference boundary facets, as a linear term.
 
     Consistent nodal forces f_a = sum over facets of the integral of N_a t dA (reference area):
     :func:`nodal_areas` times t.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        Boundary facets in node numbers.
+    traction : array_like, shape (d,)
+        The traction t [MPa].
+    facet_type : str, optional
+        The facets' element name (default: inferred from d and nfn).
+
+    Returns
+    -------
+    LinearTerm
+        Named "load"; nodal forces [N; N/mm per unit depth in 2D].
     """
     areas = nodal_areas(reference, facets, facet_type)
     return LinearTerm(areas[:, None] * np.asarray(traction, dtype=float)[None, :], reference)
@@ -218,8 +234,24 @@ class ScaledTerm(EnergyTerm):
 
 
 def body_load(reference: np.ndarray, cells: np.ndarray, element, force_density) -> LinearTerm:
-    """Dead body force ``force_density`` [N/mm^3] (length d), e.g. density x gravity, on cells
-    (ne, nen) of ``element``: consistent nodal forces f_a = integral of N_a b dV."""
+    """Dead body force on cells, as a linear term: consistent nodal forces f_a = integral of N_a b dV.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    cells : ndarray, shape (ne, nen)
+        The cells in node numbers.
+    element : ReferenceElement
+        The cells' element type.
+    force_density : array_like, shape (d,)
+        The body force b [N/mm^3], e.g. density x gravity.
+
+    Returns
+    -------
+    LinearTerm
+        Named "load"; nodal forces [N; N/mm per unit depth in 2D].
+    """
     cells = np.asarray(cells)
     _, dV = physical_gradients(element, reference[cells])
     N = element.shape(element.quad_points)
@@ -457,9 +489,26 @@ def face_weights(reference: np.ndarray, facets: np.ndarray) -> np.ndarray:
 
 
 def resultant_load(reference: np.ndarray, facets: np.ndarray, force, name: str = "tip_force") -> LinearTerm:
-    """A dead force ``force`` [N; N/mm in 2D, per unit depth] (length d) spread over boundary
-    ``facets`` as a uniform traction on their reference area: nodal forces w_a F with the
-    weights of :func:`face_weights`, so its work is F . (mean displacement of the face)."""
+    """A dead force spread over boundary facets as a uniform traction on their reference area.
+
+    Nodal forces w_a F with the weights of :func:`face_weights`, so its work is
+    F . (mean displacement of the face).
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        The boundary facets.
+    force : array_like, shape (d,)
+        The resultant F [N; N/mm per unit depth in 2D].
+    name : str, optional
+        The term's name.
+
+    Returns
+    -------
+    LinearTerm
+    """
     w = face_weights(reference, facets)
     return LinearTerm(w[:, None] * np.asarray(force, dtype=float)[None, :], reference, name)
 
