@@ -82,10 +82,18 @@ def prescribed(nodes, dim: int, component: int, displacement: float) -> Dirichle
 class Problem:
     """What the load-path driver solves.
 
-    ``X``: reference positions (n, d) [mm]. ``terms(s)`` returns the energy terms at load
-    parameter s in [0, 1] (materials at the stimulus of s, loads scaled by s, ...), a list summed
-    in order whose ``name``s are unique (:func:`hydrojam.fem.terms.by_name` addresses them).
-    ``force_scale`` [N] sets the floor of the residual tolerance.
+    Parameters
+    ----------
+    X : ndarray, shape (n, d)
+        Reference positions [mm].
+    terms : callable
+        ``terms(s)``: the energy terms at load parameter s in [0, 1] (materials at the stimulus of
+        s, loads scaled by s, ...), a list summed in order whose ``name`` attributes are unique
+        (:func:`hydrojam.fem.terms.by_name` addresses them).
+    dirichlet : list of Dirichlet, optional
+        The prescribed DOFs.
+    force_scale : float, optional
+        Sets the floor of the residual tolerance [N].
     """
 
     X: np.ndarray

@@ -88,7 +88,17 @@ def by_name(terms: Iterable[EnergyTerm]) -> dict[str, EnergyTerm]:
 
 
 class LinearTerm(EnergyTerm):
-    """A term linear in x: E = -f . (x - X), the negative work of dead nodal forces f [N]."""
+    """A term linear in x: E = -f . (x - X), the negative work of dead nodal forces f.
+
+    Parameters
+    ----------
+    forces : ndarray, shape (n, d)
+        Nodal forces f [N; N/mm per unit depth in 2D].
+    reference : ndarray, shape (n, d)
+        Reference positions X [mm].
+    name : str, optional
+        The term's name.
+    """
 
     def __init__(self, forces: np.ndarray, reference: np.ndarray, name: str = "load"):
         self.forces = np.asarray(forces, dtype=float).reshape(reference.shape)
@@ -158,8 +168,16 @@ def surface_load(reference: np.ndarray, facets: np.ndarray, traction, facet_type
 
 
 class TimedTerm(EnergyTerm):
-    """Another term with every protocol member passed through, and the wall time [s] of each call
-    reported as ``record(method_name, seconds)`` (the time shares of simulations and benchmarks)."""
+    """Another term with every protocol member passed through, and the wall time of each call
+    reported (the time shares of simulations and benchmarks).
+
+    Parameters
+    ----------
+    term : EnergyTerm
+        The term wrapped.
+    record : callable
+        ``record(method_name, seconds)``, called after each call with its wall time [s].
+    """
 
     def __init__(self, term: EnergyTerm, record: Callable[[str, float], None]):
         self._term, self._record = term, record
@@ -200,8 +218,17 @@ class TimedTerm(EnergyTerm):
 
 @dataclass(frozen=True)
 class ScaledTerm(EnergyTerm):
-    """``scale`` times another term (e.g. a load ramped with the load parameter s); every
-    optional part is the wrapped term's (its forces in play scaled too), and so is its name."""
+    """``scale`` times another term (e.g. a load ramped with the load parameter s).
+
+    Every optional part is the wrapped term's (its forces in play scaled too), and so is its name.
+
+    Parameters
+    ----------
+    term : EnergyTerm
+        The term wrapped.
+    scale : float
+        The factor [-].
+    """
 
     term: EnergyTerm
     scale: float
@@ -262,15 +289,26 @@ def body_load(reference: np.ndarray, cells: np.ndarray, element, force_density) 
 
 
 class ViscousStabilisation(EnergyTerm):
-    """Artificial viscous damping of a load step (as ABAQUS's *STATIC, STABILIZE): the energy
-    c/2 sum_a w_a |x_a - x_a^n|^2, with x^n the state at the start of the step (``begin_step``),
-    w_a [mm^2 in 2D, mm^3 in 3D] the nodal share of the reference volume and c [N/mm^4 in 3D;
-    N/mm^3 per unit depth in 2D] the damping.
+    """Artificial viscous damping of a load step (as ABAQUS's *STATIC, STABILIZE).
+
+    The energy c/2 sum_a w_a |x_a - x_a^n|^2, with x^n the state at the start of the step
+    (``begin_step``), w_a the nodal share of the reference volume and c the damping.
 
     It stiffens only what has no stiffness of its own (a buckling particle column, a particle's
     rigid rotation, a soft membrane's bending) so that a step through a snap travels gradually
     instead of being a Newton step into the unknown; its force c w (x - x^n) is not part of the
     physics and must be released at the end (``scale`` = 0) or shown to be small.
+
+    Parameters
+    ----------
+    weights : ndarray, shape (n,)
+        Nodal shares w_a of the reference volume [mm^2 in 2D, mm^3 in 3D].
+    damping : float
+        The damping c [N/mm^4 in 3D; N/mm^3 per unit depth in 2D].
+    dim : int
+        Spatial dimension d.
+    name : str, optional
+        The term's name.
     """
 
     def __init__(self, weights: np.ndarray, damping: float, dim: int, name: str = "stabilisation"):
@@ -384,9 +422,10 @@ def _quadrature_for(fe, degree: int):
 
 
 class PressureTerm(EnergyTerm):
-    """A uniform pressure ``pressure`` [MPa] on boundary ``facets`` (nf, nfn) of a body; an
-    energy term named "pressure". Facets: line2/line3 in 2D (plane strain: energies per unit
-    depth [mJ/mm], forces [N/mm]), tri3/tri6 in 3D.
+    """A uniform pressure on boundary facets of a body; an energy term named "pressure".
+
+    Facets: line2/line3 in 2D (plane strain: energies per unit depth [mJ/mm], forces [N/mm]),
+    tri3/tri6 in 3D.
 
     **Orientation.** The facets must point *out of the body* (normals as in
     :func:`~hydrojam.fem.elements.facet_measure`; mesh facet groups on the boundary are, and
@@ -407,6 +446,21 @@ class PressureTerm(EnergyTerm):
 
     **Dead** (``follower=False``): the traction -p N on the reference normals, fixed nodal forces
     f_a = -p int N_a N dA (a :class:`LinearTerm`); right only while rotations are small.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        The boundary facets, in node numbers.
+    pressure : float
+        The pressure p [MPa].
+    follower : bool, optional
+        A follower (True) or a dead (False) pressure.
+    cells : ndarray, shape (ne, nen), optional
+        The body's cells, to orient the facets outward.
+    name : str, optional
+        The term's name.
     """
 
     name = "pressure"
@@ -514,12 +568,29 @@ def resultant_load(reference: np.ndarray, facets: np.ndarray, force, name: str =
 
 
 class CentroidSpring(EnergyTerm):
-    """A stiff linear spring between a face's mean position c(x) = sum_a w_a x_a (weights of
-    :func:`face_weights`) and a ``target`` [mm], in the ``components`` given: E = k/2 sum_i
-    (c_i - target_i)^2, ``stiffness`` k [N/mm; N/mm per unit depth in 2D]. A penalty form of a
-    prescribed face displacement that leaves the face free to rotate and deform (a pin or a
-    frictionless stop, not a guided end); :meth:`reaction` is the force the spring exerts on the
-    face [N] and the spring's stretch (c - target) is the constraint's error, F/k."""
+    """A stiff linear spring between a face's mean position and a target.
+
+    c(x) = sum_a w_a x_a (weights of :func:`face_weights`), E = k/2 sum_i (c_i - target_i)^2 over
+    the ``components`` given. A penalty form of a prescribed face displacement that leaves the
+    face free to rotate and deform (a pin or a frictionless stop, not a guided end);
+    :meth:`reaction` is the force the spring exerts on the face [N] and the spring's stretch
+    (c - target) is the constraint's error, F/k.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        The face's boundary facets.
+    target : array_like, shape (d,)
+        The target position [mm].
+    stiffness : float
+        The stiffness k [N/mm; N/mm per unit depth in 2D].
+    components : sequence of int, optional
+        The components held.
+    name : str, optional
+        The term's name.
+    """
 
     name = "tip_spring"
 
