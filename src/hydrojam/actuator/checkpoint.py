@@ -91,12 +91,30 @@ def release_progress(path: str | Path) -> ReleaseProgress | None:
 
 @dataclass(frozen=True)
 class RunCheckpoint:
-    """A run stopped after an accepted state. ``states``: the accepted states as plain dicts
-    (:class:`~hydrojam.actuator.simulate.StepState`'s fields but x) with their positions ``xs``
-    (k, n, d) [mm]; ``path``: the load path's state; ``release``: the release's, None before it
-    began; ``elapsed_s``: the run's wall time before it stopped [s]; ``clocks``: seconds spent in
-    elastic and contact terms; ``energy_ratio``: the stabilisation's largest energy ratio so far;
-    ``resumed``: one record per earlier resumption (s and state index it went on from, version)."""
+    """A run stopped after an accepted state.
+
+    Parameters
+    ----------
+    design_digest : str
+        The digest of the design it was written for.
+    states : tuple of dict
+        The accepted states as plain dicts (:class:`~hydrojam.actuator.simulate.StepState`'s
+        fields but x).
+    xs : ndarray, shape (k, n, d)
+        Their positions [mm].
+    path : PathCheckpoint
+        The load path's state.
+    release : ReleaseCheckpoint or None
+        The release's state, None before it began.
+    elapsed_s : float
+        The run's wall time before it stopped [s].
+    clocks : dict
+        Seconds spent in elastic and contact terms [s].
+    energy_ratio : float
+        The stabilisation's largest energy ratio so far [-].
+    resumed : tuple of dict, optional
+        One record per earlier resumption (s and state index it went on from, version).
+    """
 
     design_digest: str
     states: tuple[dict, ...]
@@ -122,7 +140,15 @@ def _plain(value):
 
 
 def save_checkpoint(path: str | Path, ck: RunCheckpoint) -> None:
-    """Write ``ck`` to ``path`` atomically (a reader never sees half a file)."""
+    """Write a checkpoint atomically (a reader never sees half a file).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    ck : RunCheckpoint
+        The checkpoint.
+    """
     meta = {
         "format": FORMAT,
         "design_digest": ck.design_digest,
@@ -157,9 +183,28 @@ def save_checkpoint(path: str | Path, ck: RunCheckpoint) -> None:
 
 
 def load_checkpoint(path: str | Path, design, shape: tuple[int, int]) -> RunCheckpoint:
-    """The checkpoint at ``path`` for ``design`` (positions of ``shape``: nodes, dimension). Raises
-    FileNotFoundError where there is none and :class:`CheckpointError` (saying why) for one that
-    cannot be resumed."""
+    """The checkpoint at ``path`` for ``design``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The checkpoint file.
+    design : Design
+        The design it must have been written for.
+    shape : tuple of int
+        (nodes, dimension) of the positions, those of the design's mesh.
+
+    Returns
+    -------
+    RunCheckpoint
+
+    Raises
+    ------
+    FileNotFoundError
+        Where there is none.
+    CheckpointError
+        Saying why, for one that cannot be resumed.
+    """
     path = Path(path)
     try:
         with np.load(path, allow_pickle=False) as data:

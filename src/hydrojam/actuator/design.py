@@ -522,15 +522,35 @@ def with_replicas(design: Design, count: int) -> Design:
 
 
 def default_design() -> Design:
-    """The default design (DESIGN.md section 6): d 16 mm, PL 5, clearance 0.1 mm, L = 88.6 mm."""
+    """The default design (DESIGN.md section 6): d 16 mm, PL 5, clearance 0.1 mm, L = 88.6 mm.
+
+    Returns
+    -------
+    Design
+    """
     return Design()
 
 
 def design_from_dict(data: dict) -> Design:
-    """A validated Design from plain data (e.g. parsed TOML); raises DesignError (one line).
+    """A validated Design from plain data (e.g. parsed TOML).
 
     Types are checked strictly (TOML values are typed): an integer where a number is expected
     is accepted, a string or a float where an integer is expected is not.
+
+    Parameters
+    ----------
+    data : dict
+        The design's keys, nested tables as dicts; lengths [mm], temperatures [K], chemical
+        potentials [k_B T], moduli [MPa].
+
+    Returns
+    -------
+    Design
+
+    Raises
+    ------
+    DesignError
+        One line naming the field and its allowed range.
     """
     if not isinstance(data, dict):
         raise DesignError(f"design: expected a table of keys, got {type(data).__name__}")
@@ -541,7 +561,22 @@ def design_from_dict(data: dict) -> Design:
 
 
 def load_design(path: str | os.PathLike) -> Design:
-    """Read a design TOML file; raises DesignError naming the file for a missing or invalid one."""
+    """Read a design TOML file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+
+    Returns
+    -------
+    Design
+
+    Raises
+    ------
+    DesignError
+        Naming the file, for a missing or invalid one.
+    """
     path = Path(path)
     data = read_toml(path, "design", DesignError)
     try:
@@ -575,7 +610,23 @@ def apply_overrides(design: Design, overrides: list[str]) -> Design:
 
     A value is read as a TOML value, else as a plain string ('stimulus.path=linear'). Overrides
     merge into the unresolved design (derived cavity sizes follow a new particle_diameter) and the
-    result is validated as a whole; raises DesignError naming the override.
+    result is validated as a whole.
+
+    Parameters
+    ----------
+    design : Design
+        The design to start from.
+    overrides : list of str
+        'dotted.key=value' items, each in the field's unit.
+
+    Returns
+    -------
+    Design
+
+    Raises
+    ------
+    DesignError
+        Naming the override.
     """
     data = design.model_dump(exclude_none=True)
     applied: list[tuple[str, str]] = []
@@ -676,10 +727,22 @@ def _field_lines(model: BaseModel, comments: bool, owner: Design | None) -> list
 
 
 def design_to_toml(design: Design, comments: bool = True) -> str:
-    """The design as a TOML document; with ``comments`` every key has its description, unit,
-    allowed range and default above it, and derived (None) keys appear commented out.
+    """The design as a TOML document.
 
     Round-trips: ``design_from_dict(tomllib.loads(design_to_toml(d))) == d``.
+
+    Parameters
+    ----------
+    design : Design
+        The design.
+    comments : bool, optional
+        Every key with its description, unit, allowed range and default above it, and derived
+        (None) keys commented out.
+
+    Returns
+    -------
+    str
+        The TOML text.
     """
     lines: list[str] = []
     if comments:
@@ -700,5 +763,15 @@ def design_to_toml(design: Design, comments: bool = True) -> str:
 
 
 def write_design(path: str | os.PathLike, design: Design, comments: bool = True) -> None:
-    """Write the design as (commented) TOML to ``path`` atomically."""
+    """Write the design as (commented) TOML atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write.
+    design : Design
+        The design.
+    comments : bool, optional
+        As for :func:`design_to_toml`.
+    """
     write_text_atomic(path, design_to_toml(design, comments))

@@ -140,7 +140,22 @@ _BY_NAME = {m.name: m for m in (*STATE_METRICS, *RUN_FIELDS)}
 
 
 def metric(name: str) -> Metric:
-    """The metric or run field (a key of metrics.json) called ``name``; KeyError naming the known ones."""
+    """The metric or run field (a key of metrics.json) called ``name``.
+
+    Parameters
+    ----------
+    name : str
+        The key, e.g. "bending_angle_deg".
+
+    Returns
+    -------
+    Metric
+
+    Raises
+    ------
+    KeyError
+        Naming the known ones.
+    """
     try:
         return _BY_NAME[name]
     except KeyError:
@@ -148,7 +163,12 @@ def metric(name: str) -> Metric:
 
 
 def metric_names() -> list[str]:
-    """The keys of metrics.json in their order, without ``timings_s``: state metrics, run fields."""
+    """The keys of metrics.json in their order, without ``timings_s``: state metrics, run fields.
+
+    Returns
+    -------
+    list of str
+    """
     return list(_BY_NAME)
 
 
@@ -243,12 +263,20 @@ def face_rotation_deg(X_face, x_face) -> float:
 
 
 def bending_angle_deg(X_face, x_face) -> float:
-    """Bending angle theta [deg] of DESIGN.md section 7: rotation of the free-end face.
+    """Bending angle theta of DESIGN.md section 7: rotation of the free-end face.
 
     The face rotation (``face_rotation_deg``) of the free-end face's nodes: positive toward the
     strain-limit side (-x, clockwise in the (x, z) plane), in (-180, 180].
 
-    X_face, x_face: reference and current positions of the free-end face's nodes, shape (m, 2) [mm].
+    Parameters
+    ----------
+    X_face, x_face : ndarray, shape (m, 2)
+        Reference and current positions of the free-end face's nodes [mm].
+
+    Returns
+    -------
+    float
+        theta [deg].
     """
     return face_rotation_deg(X_face, x_face)
 
@@ -303,12 +331,20 @@ def enclosed_volume(points, triangles) -> float:
 
 
 def tip_displacement(X_face, x_face) -> tuple[float, float]:
-    """Free-end displacement (dx, dz) [mm] of DESIGN.md section 7: the face centroid's displacement.
+    """Free-end displacement of DESIGN.md section 7: the face centroid's displacement.
 
     The centroid is the plain mean of the face's nodes, so this is the mean of the node
     displacements (not an area-weighted centroid: with unevenly spaced nodes the two differ).
 
-    X_face, x_face: reference and current positions of the free-end face's nodes, shape (m, 2) [mm].
+    Parameters
+    ----------
+    X_face, x_face : ndarray, shape (m, 2)
+        Reference and current positions of the free-end face's nodes [mm].
+
+    Returns
+    -------
+    dx, dz : float
+        The displacement [mm].
     """
     X, x = _as_pair(X_face, x_face, min_nodes=1)
     dx, dz = (x - X).mean(axis=0)
@@ -319,13 +355,18 @@ def tip_displacement(X_face, x_face) -> tuple[float, float]:
 class CentrelineProfile:
     """Rotation and curvature along a centreline, nodes ordered from the clamp to the free end.
 
-    reference_arc_length: (m,) arc length from the clamp in the reference state [mm].
-    arc_length: (m,) arc length from the clamp in the current state [mm] (along the polyline).
-    rotation: (m,) rotation of the tangent from its reference direction [rad], positive clockwise
-        (toward the strain-limit side, -x), unwrapped along the line: it exceeds pi for a curled
-        actuator.
-    curvature: (m,) d(rotation)/d(arc_length) [1/mm], positive when bending toward -x. For a
-        straight reference centreline this is the current (signed) curvature.
+    Parameters
+    ----------
+    reference_arc_length : ndarray, shape (m,)
+        Arc length from the clamp in the reference state [mm].
+    arc_length : ndarray, shape (m,)
+        Arc length from the clamp in the current state [mm] (along the polyline).
+    rotation : ndarray, shape (m,)
+        Rotation of the tangent from its reference direction [rad], positive clockwise (toward
+        the strain-limit side, -x), unwrapped along the line: it exceeds pi for a curled actuator.
+    curvature : ndarray, shape (m,)
+        d(rotation)/d(arc_length) [1/mm], positive when bending toward -x. For a straight
+        reference centreline this is the current (signed) curvature.
     """
 
     reference_arc_length: np.ndarray
@@ -401,9 +442,6 @@ def _polyline_tangents(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def centreline_profile(X_line, x_line) -> CentrelineProfile:
     """Tangent rotation and curvature along a centreline (DESIGN.md section 7).
 
-    X_line, x_line: reference and current node positions, shape (m, 2), m >= 2 [mm], ordered from
-    the clamp to the free end; the spacing need not be even.
-
     Tangent directions at the nodes come from the segments' chords (each the tangent at its
     segment's midpoint, up to O(h^2)), unwrapped along the line and interpolated quadratically in
     arc length to the nodes (one-sided at the two ends): second-order accurate on uneven spacing,
@@ -416,6 +454,17 @@ def centreline_profile(X_line, x_line) -> CentrelineProfile:
     the rotation over current arc length: second-order accurate where the spacing varies
     smoothly; at the two nodes nearest each end it drops to first order where the spacing jumps
     from segment to segment (the rotation's O(h^2) error is then not smooth there).
+
+    Parameters
+    ----------
+    X_line, x_line : ndarray, shape (m, 2)
+        Reference and current node positions [mm], m >= 2, ordered from the clamp to the free
+        end; the spacing need not be even.
+
+    Returns
+    -------
+    CentrelineProfile
+        Arc lengths [mm], rotation [rad] and curvature [1/mm] at the nodes.
     """
     X, x = _as_pair(X_line, x_line, min_nodes=2)
     S, angle_ref = _polyline_tangents(X)
@@ -477,8 +526,16 @@ def curling_index(profile: CentrelineProfile) -> float | None:
     arc), tends to 1 when the rotation is concentrated near the clamp (curling, paper Sec. IV-B)
     and to 0 when it is concentrated near the tip.
 
-    Returns None when |rot(s_end) - rot(0)| < 1e-3 rad: the share is undefined for a (nearly)
-    straight actuator.
+    Parameters
+    ----------
+    profile : CentrelineProfile
+        The centreline's rotation along its arc length.
+
+    Returns
+    -------
+    float or None
+        The index [-]; None when |rot(s_end) - rot(0)| < 1e-3 rad: the share is undefined for a
+        (nearly) straight actuator.
     """
     rot = profile.rotation
     total = rot[-1] - rot[0]

@@ -175,7 +175,17 @@ def _straight_pieces(facets: np.ndarray) -> np.ndarray:
 
 
 def build_model(design: Design) -> ActuatorModel:
-    """Mesh the design and set up bodies, materials, clamp, contact and the stimulus path."""
+    """Mesh the design and set up bodies, materials, clamp, contact and the stimulus path.
+
+    Parameters
+    ----------
+    design : Design
+        The design (lengths [mm]).
+
+    Returns
+    -------
+    ActuatorModel
+    """
     design = design.resolved()
     check_supported(design)
     mesh = jitter_particles(mesh_design(design), design)
@@ -248,10 +258,24 @@ def particle_areas(model: ActuatorModel, x: np.ndarray) -> np.ndarray:
 
 
 def measure(model: ActuatorModel, x: np.ndarray) -> dict:
-    """The metrics of DESIGN.md section 7 at positions x (n, 2) [mm]: one value per entry of
-    :data:`~hydrojam.actuator.metrics.STATE_METRICS` (names, units and meanings are defined
-    there), in that order. Contacts per particle: particle-particle pairs count for both,
-    particle-wall pairs once."""
+    """The metrics of DESIGN.md section 7 at one state.
+
+    One value per entry of :data:`~hydrojam.actuator.metrics.STATE_METRICS` (names, units and
+    meanings are defined there), in that order. Contacts per particle: particle-particle pairs
+    count for both, particle-wall pairs once.
+
+    Parameters
+    ----------
+    model : ActuatorModel
+        The model.
+    x : ndarray, shape (n, d)
+        Positions of the mesh's nodes [mm] (d = 2 or 3, the model's dimension).
+
+    Returns
+    -------
+    dict
+        Metric name -> value in the metric's unit (None where undefined).
+    """
     if model.mesh.dim == 3:
         return _measure_3d(model, x)
     X = model.mesh.points

@@ -50,11 +50,23 @@ def _mid_section(model, fields):
 
 
 def plot_actuator(model, state, path: str | os.PathLike) -> None:
-    """The actuator at ``state`` over its undeformed outline (left) and the centreline curvature
-    profile (right). Particles coloured by swelling ratio (gel volume / dry volume); membrane
-    light grey, strain-limit layer dark grey. Lengths in mm. A 3D actuator is drawn as its
-    section y = 0 (the symmetry plane: half of every particle, the walls and the strain-limit
-    layer cut through the middle), seen along -y."""
+    """Draw the actuator at a state over its undeformed outline (left) and the centreline curvature
+    profile (right).
+
+    Particles coloured by swelling ratio (gel volume / dry volume); membrane light grey,
+    strain-limit layer dark grey. Lengths in mm. A 3D actuator is drawn as its section y = 0 (the
+    symmetry plane: half of every particle, the walls and the strain-limit layer cut through the
+    middle), seen along -y.
+
+    Parameters
+    ----------
+    model : ActuatorModel
+        The model.
+    state : StepState
+        The state drawn (positions [mm]).
+    path : str or os.PathLike
+        The PNG file to write.
+    """
     mesh, X, x = model.mesh, model.mesh.points, state.x
     fields = cell_fields(model, x, state.s)
     if mesh.dim == 3:
@@ -122,10 +134,20 @@ def _time_unit(t_end: float) -> tuple[float, str]:
 
 
 def plot_angle_time(states, schedule, path: str | os.PathLike) -> None:
-    """``angle_time.png`` of a time-resolved run: the bending angle against time with the
-    temperature schedule on a twin axis (top), and the free-end displacement against time
-    (bottom). ``states``: the accepted states (each with ``time_s``); ``schedule``: the
-    ((t_s, T_K), ...) points."""
+    """Draw ``angle_time.png`` of a time-resolved run.
+
+    The bending angle against time with the temperature schedule on a twin axis (top), and the
+    free-end displacement against time (bottom).
+
+    Parameters
+    ----------
+    states : sequence of StepState
+        The accepted states, each with ``time_s`` [s].
+    schedule : sequence of (float, float)
+        The ((t_s [s], T_K [K]), ...) points.
+    path : str or os.PathLike
+        The PNG file to write.
+    """
     t = np.array([st.time_s for st in states], dtype=float)
     pts = np.asarray(schedule, dtype=float)
     scale, unit = _time_unit(max(float(pts[-1, 0]), float(t.max())))

@@ -154,6 +154,15 @@ class ResultWriter:
 
     :meth:`start` writes the resolved design and clears step files of an earlier run; call
     :meth:`step` for every accepted state and :meth:`finish` at the end.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The run's output folder.
+    model : ActuatorModel
+        The model being run.
+    vtu : bool, optional
+        Also write every accepted state as ``steps/step_<index>.vtu``, with ``results.pvd``.
     """
 
     def __init__(self, out_dir: str | Path, model: ActuatorModel, vtu: bool = True):

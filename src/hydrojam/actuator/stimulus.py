@@ -56,8 +56,17 @@ def _free_stretches(params: HydrogelParams, mus, Ts, dimension: int) -> np.ndarr
 class StimulusPath:
     """(mu, T) as a function of the load parameter s in [0, 1].
 
-    mu in k_B T, T in K. ``knots`` maps s to the position t on the straight segment from
-    (mu0, T0) to (mu_target, T_target), monotone, t(0) = 0, t(1) = 1.
+    ``path(s)`` gives (mu [k_B T], T [K]). The knots map s to the position t on the straight
+    segment from (mu_start, T_start) to (mu_target, T_target), monotone, t(0) = 0, t(1) = 1.
+
+    Parameters
+    ----------
+    mu_start, T_start : float
+        The start of the segment: chemical potential [k_B T], temperature [K].
+    mu_target, T_target : float
+        The target stimulus [k_B T], [K].
+    s_knots, t_knots : ndarray
+        The load parameter [-] and the position on the segment [-] at the knots.
     """
 
     mu_start: float
@@ -88,8 +97,31 @@ def stimulus_path(params: HydrogelParams, mu_target: float, T_target: float, kin
                   dimension: int = 2, mu_start: float | None = None, T_start: float | None = None) -> StimulusPath:
     """The path from (mu_start, T_start) (default: the as-prepared (mu0, T0)) to the target.
 
-    ``kind`` "linear" or "swelling" (see the module docstring); ``dimension`` 2 (plane strain)
-    or 3 sets which unconfined swelling the "swelling" path spreads evenly.
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    mu_target : float
+        Target chemical potential [k_B T].
+    T_target : float
+        Target temperature [K].
+    kind : {"swelling", "linear"}, optional
+        How s spreads along the segment (see the module docstring).
+    dimension : {2, 3}, optional
+        Which unconfined swelling the "swelling" path spreads evenly: plane strain (2) or free (3).
+    mu_start : float, optional
+        Start chemical potential [k_B T] (default ``params.mu0``).
+    T_start : float, optional
+        Start temperature [K] (default ``params.T0``).
+
+    Returns
+    -------
+    StimulusPath
+
+    Raises
+    ------
+    ValueError
+        For a ``kind`` other than "swelling" or "linear".
     """
     mu0 = params.mu0 if mu_start is None else float(mu_start)
     T0 = params.T0 if T_start is None else float(T_start)
@@ -183,10 +215,24 @@ class TimedStimulusPath:
     """A time-resolved stimulus path: (mu [k_B T], T [K]) and time [s] as functions of the load
     parameter s in [0, 1], piecewise linear through the sampled states.
 
-    ``s_knots`` (increasing, 0 to 1), ``times`` [s], ``mus`` (the effective mu_eff [k_B T]),
-    ``temperatures`` [K], ``surface`` and ``mean`` (the particle's surface and volume-averaged
-    ln J at each time), ``radius`` [mm] and ``diffusivity`` [mm^2/s] of the kinetics, and the
-    ``schedule`` ((t_s, T_K) points) it follows.
+    Parameters
+    ----------
+    s_knots : ndarray, shape (m,)
+        Load parameter at the samples [-], increasing from 0 to 1.
+    times : ndarray, shape (m,)
+        Time at the samples [s].
+    mus : ndarray, shape (m,)
+        The effective chemical potential mu_eff [k_B T].
+    temperatures : ndarray, shape (m,)
+        Temperature [K].
+    surface, mean : ndarray, shape (m,)
+        The particle's surface and volume-averaged ln J at each time [-].
+    radius : float
+        Particle radius of the kinetics [mm].
+    diffusivity : float
+        Collective diffusion coefficient of the kinetics [mm^2/s].
+    schedule : tuple
+        The ((t_s, T_K), ...) points it follows [s, K].
     """
 
     s_knots: np.ndarray
@@ -218,22 +264,42 @@ class TimedStimulusPath:
 
 def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_diameter: float,
                         diffusivity: float, dimension: int = 2, cells: int = 400) -> TimedStimulusPath:
-    """The path of an actuator whose particles meet the solvent (chemical potential ``mu``
-    [k_B T]) at t = 0, as prepared (stretch lambda0 of the dry network), while the temperature
-    follows ``schedule`` ((t_s, T_K) points, t from 0, strictly increasing; linear in between).
+    """The path of an actuator whose particles meet the solvent at t = 0, as prepared (stretch
+    lambda0 of the dry network), while the temperature follows a schedule.
 
     Each particle follows its own free-swelling kinetics (a cylinder in 2D, a sphere in 3D;
     :func:`~hydrojam.materials.kinetics.mean_log_swelling`): its surface holds the unconfined
     equilibrium at (mu, T(t)) (the branch followed by continuation from lambda0), it starts at
     ln J = ln lambda0^3, and its radius is the largest unconfined radius over the schedule,
-    (particle_diameter [mm] / 2) x the largest free stretch over lambda0 (Tanaka & Fillmore take
-    the swollen radius; the largest is the slowest, a conservative time). Its mean ln J at each
+    (particle_diameter / 2) x the largest free stretch over lambda0 (Tanaka & Fillmore take the
+    swollen radius; the largest is the slowest, a conservative time). Its mean ln J at each
     sampled time is held by free swelling at (mu_eff(t), T(t))
     (:func:`effective_chemical_potential`, at most ``mu``); the load parameter is spread over the
     samples half evenly over the (total variation of the) mean log swelling, as the "swelling"
     path does, so every load step gets a similar share of the change, and half evenly over the
     logarithmic time since each schedule point (in units of 0.3 tau), so that long holds get
     steps growing with the time since their start (the particles' water relaxes within them).
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    mu : float
+        Chemical potential of the solvent [k_B T].
+    schedule : sequence of (float, float)
+        (t_s [s], T_K [K]) points, t from 0, strictly increasing; linear in between.
+    particle_diameter : float
+        As-prepared particle diameter [mm].
+    diffusivity : float
+        Collective diffusion coefficient D [mm^2/s].
+    dimension : {2, 3}, optional
+        Cylinders (plane strain) or spheres.
+    cells : int, optional
+        Radial shells of the kinetics.
+
+    Returns
+    -------
+    TimedStimulusPath
     """
     pts = np.asarray(schedule, dtype=float)
     lam0 = params.lambda0

@@ -27,8 +27,28 @@ AUTO_DEFLECTION = 0.05
 
 @dataclass
 class Assessment:
-    """The numbers of one assessment (see :func:`assess`); every force per unit depth [N/mm],
-    every stiffness [N/mm per mm of depth], pressures [MPa], times [s]."""
+    """The numbers of one assessment (see :func:`assess`).
+
+    Every force is per unit depth [N/mm], every stiffness [N/mm per mm of depth], pressures
+    [MPa], times [s].
+
+    Parameters
+    ----------
+    design : Design
+        The design assessed (resolved).
+    loads : Loads
+        What was applied.
+    values : dict, optional
+        Name -> value of every scalar result, in the units above.
+    curves : dict of str to TipCurve, optional
+        The tip load-deflection curves by name: forces [N/mm], deflections [mm].
+    blocked : list of dict, optional
+        The blocked force at each temperature.
+    states : dict of str to ndarray, optional
+        The states computed, by name: positions [mm].
+    model : object, optional
+        The actuator model.
+    """
 
     design: Design
     loads: Loads
@@ -69,15 +89,34 @@ def check_assessable(design: Design) -> None:
 
 
 def assess(design: Design, loads: Loads = Loads(), on_progress: Callable[[str], None] | None = None) -> Assessment:
-    """Assess ``design`` under ``loads``: actuate it (s = 1), then from the actuated and from the
-    as-prepared (s = 0) state a tip load-deflection curve in +x and -x up to ``loads.max_force``
-    and the tangent stiffness there; the blocked force at each of ``loads.temperatures``; the
-    vacuum-jamming baseline at ``loads.vacuum_pressure``; and the confinement (mean and largest
-    contact pressure on the membrane against the gel's confined swelling pressure); and how fast:
-    the swollen particles' diffusion-limited swelling time (and, for a design with a temperature
-    schedule, the run's time to 90% of its final angle).
-    ``on_progress(message)`` says what starts (the long parts take minutes). Raises DesignError
-    for a design it cannot assess (:func:`check_assessable`) before any work."""
+    """Assess a design as a jamming actuator under the given loads.
+
+    Actuate it (s = 1), then from the actuated and from the as-prepared (s = 0) state a tip
+    load-deflection curve in +x and -x up to ``loads.max_force`` and the tangent stiffness there;
+    the blocked force at each of ``loads.temperatures``; the vacuum-jamming baseline at
+    ``loads.vacuum_pressure``; and the confinement (mean and largest contact pressure on the
+    membrane against the gel's confined swelling pressure); and how fast: the swollen particles'
+    diffusion-limited swelling time (and, for a design with a temperature schedule, the run's time
+    to 90% of its final angle).
+
+    Parameters
+    ----------
+    design : Design
+        The design (2D).
+    loads : Loads, optional
+        What to apply (default: :class:`Loads`'s defaults).
+    on_progress : callable, optional
+        ``on_progress(message)``, told what starts (the long parts take minutes).
+
+    Returns
+    -------
+    Assessment
+
+    Raises
+    ------
+    DesignError
+        For a design it cannot assess (:func:`check_assessable`), before any work.
+    """
     check_assessable(design)
     say = on_progress or (lambda message: None)
     out = Assessment(design.resolved(), loads)

@@ -120,8 +120,23 @@ def conclusion(a: Assessment) -> list[str]:
 
 
 def write_report(a: Assessment, out: str | os.PathLike) -> Path:
-    """Write report.md, assessment.json, design.toml and the figures (load_deflection.png,
-    blocked_force.png, confinement.png) into ``out``; returns the report's path."""
+    """Write an assessment's report and its files into a folder.
+
+    The files are report.md, assessment.json, design.toml and the figures (load_deflection.png,
+    blocked_force.png, confinement.png).
+
+    Parameters
+    ----------
+    a : Assessment
+        The assessment.
+    out : str or os.PathLike
+        The folder (made if missing).
+
+    Returns
+    -------
+    Path
+        The report's path.
+    """
     out = make_folder(out)
     v = a.values
     plot_curves(a, out / "load_deflection.png")

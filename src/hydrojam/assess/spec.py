@@ -24,7 +24,25 @@ class AssessError(DesignError):
 
 
 class Loads(BaseModel):
-    """What an assessment applies to the design (docs/assess.md)."""
+    """What an assessment applies to the design (docs/assess.md).
+
+    Parameters
+    ----------
+    max_force : float, optional
+        Largest tip force of the load-deflection curves, in +x and -x [N/mm]; omitted: the force
+        that deflects the unactuated actuator by 5% of its length at its tangent stiffness.
+    temperatures : tuple of float, optional
+        Temperatures of the blocked force [K], in liquid water's range.
+    vacuum_pressure : float, optional
+        Pressure difference of the vacuum-jamming baseline on the chamber's outer surface, at most
+        one atmosphere [kPa].
+    baseline_particles : ElastomerSpec, optional
+        Particles of the vacuum baseline; omitted: the gel as prepared (mu0, T0).
+    blocking : bool, optional
+        Compute the blocked force at each temperature.
+    vacuum : bool, optional
+        Compute the vacuum-jamming baseline.
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -65,12 +83,27 @@ class Loads(BaseModel):
 
 
 def loads_from_dict(data: dict, names: dict[str, str] | None = None) -> Loads:
-    """Validated :class:`Loads` from plain data; raises :class:`AssessError` (one line naming the
-    field, or its alias in ``names``, e.g. a CLI option).
+    """Validated :class:`Loads` from plain data.
 
     As strict as a design file (:func:`hydrojam.actuator.design.design_from_dict`): TOML values
     are typed, so a string or a boolean where a number is meant, a number where a boolean is
     meant, and unknown keys are refused; an integer is accepted for a number.
+
+    Parameters
+    ----------
+    data : dict
+        The loads' keys, e.g. a parsed TOML file.
+    names : dict of str to str, optional
+        Field -> the name to report it by in errors (e.g. a CLI option).
+
+    Returns
+    -------
+    Loads
+
+    Raises
+    ------
+    AssessError
+        One line naming the field (or its alias in ``names``).
     """
     if not isinstance(data, dict):
         raise AssessError(f"loads: expected a table of keys, got {type(data).__name__}")
@@ -88,7 +121,22 @@ def loads_from_dict(data: dict, names: dict[str, str] | None = None) -> Loads:
 
 
 def load_loads(path: str | os.PathLike) -> Loads:
-    """Read a loads TOML file; :class:`AssessError` naming the file for a missing or invalid one."""
+    """Read a loads TOML file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+
+    Returns
+    -------
+    Loads
+
+    Raises
+    ------
+    AssessError
+        Naming the file, for a missing or invalid one.
+    """
     data = read_toml(path, "loads", AssessError)
     try:
         return loads_from_dict(data)

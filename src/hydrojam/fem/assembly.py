@@ -33,8 +33,19 @@ from hydrojam.materials.energies import Material
 
 @dataclass(frozen=True)
 class Block:
-    """Cells (ne, nen) of one element type and one material, in global node numbers; ``name``
-    addresses the block in its Solid (unique there)."""
+    """Cells of one element type and one material, in global node numbers.
+
+    Parameters
+    ----------
+    cells : ndarray, shape (ne, nen)
+        The cells, in global node numbers.
+    element : ReferenceElement
+        Their element type.
+    material : Material
+        Their material (energy densities [MPa]).
+    name : str, optional
+        Addresses the block in its Solid (unique there).
+    """
 
     cells: np.ndarray
     element: ReferenceElement
@@ -103,11 +114,28 @@ def project_psd(K: np.ndarray) -> np.ndarray:
 
 
 class Solid(EnergyTerm):
-    """Elastic energy of element blocks over reference positions X (n_nodes, d) [mm]; an energy term.
+    """Elastic energy of element blocks over reference positions; an energy term.
 
     Blocks are addressed by their (unique) names: :meth:`with_materials` takes, and the per-block
     results return, mappings block name -> value, in block order. In 2D (plane strain) energies
     are per unit thickness [mJ/mm] and forces [N/mm].
+
+    Parameters
+    ----------
+    X : ndarray, shape (n_nodes, d)
+        Reference positions [mm].
+    blocks : list of Block
+        The element blocks, with unique names.
+    name : str, optional
+        The term's name.
+    kernels : {"compiled", "numpy"}, optional
+        The element kernels (see the module docstring); None: "compiled" unless the environment
+        sets HYDROJAM_COMPILED=0.
+
+    Raises
+    ------
+    ValueError
+        For unknown ``kernels`` or block names that are not unique.
     """
 
     def __init__(self, X: np.ndarray, blocks: list[Block], name: str = "elastic", kernels: str | None = None):

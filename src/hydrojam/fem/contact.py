@@ -61,14 +61,26 @@ def collision_primitives(facets: np.ndarray, dim: int) -> np.ndarray:
 class ContactSettings:
     """Barrier and friction parameters.
 
-    dhat: activation distance [mm]; kappa: barrier stiffness [MPa] (the contact pressure scale);
-    friction: Coulomb coefficient [-] (0: frictionless); friction_eps: slip displacement below
-    which friction is static [mm] (IPC's eps_v times the step); pair_friction: coefficients for
-    particular component pairs {(a, b): mu}, overriding ``friction``. ccd_tolerance,
-    ccd_max_iterations: the Tight Inclusion CCD's tolerance [-] and iteration cap (None: ipctk's
-    defaults, 1e-6 and 1e7). Tight Inclusion is conservative at any tolerance (the step it
-    returns is collision-free; a looser tolerance only cuts it a little shorter than the time of
-    impact), so these trade step length for speed, never the guarantee.
+    Tight Inclusion is conservative at any tolerance (the step it returns is collision-free; a
+    looser tolerance only cuts it a little shorter than the time of impact), so the CCD settings
+    trade step length for speed, never the guarantee.
+
+    Parameters
+    ----------
+    dhat : float
+        Activation distance [mm].
+    kappa : float
+        Barrier stiffness [MPa] (the contact pressure scale).
+    friction : float, optional
+        Coulomb coefficient [-] (0: frictionless).
+    friction_eps : float, optional
+        Slip displacement below which friction is static [mm] (IPC's eps_v times the step).
+    pair_friction : dict, optional
+        Coefficients for particular component pairs {(a, b): mu} [-], overriding ``friction``.
+    ccd_tolerance : float, optional
+        The Tight Inclusion CCD's tolerance [-] (None: ipctk's default, 1e-6).
+    ccd_max_iterations : int, optional
+        Its iteration cap (None: ipctk's default, 1e7).
     """
 
     dhat: float
@@ -96,10 +108,32 @@ def default_settings(
     kappa: float | None = None,
     **kw,
 ) -> ContactSettings:
-    """Principled defaults: dhat = 1% of the mean collision-edge length (mesh-relative, so the
-    barrier layer is a small fraction of an element), kappa = 10 x the largest shear modulus of
-    the bodies in contact [MPa], so that contact pressures of the order of the material's own
-    stresses are carried at gaps well inside dhat. Both overridable."""
+    """Contact settings with principled defaults for dhat and kappa.
+
+    dhat = 1% of the mean collision-edge length (mesh-relative, so the barrier layer is a small
+    fraction of an element), kappa = 10 x the largest shear modulus of the bodies in contact, so
+    that contact pressures of the order of the material's own stresses are carried at gaps well
+    inside dhat. Both overridable.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        The boundary facets in contact.
+    shear_modulus : float
+        The largest shear modulus of the bodies in contact [MPa].
+    dhat : float, optional
+        Activation distance [mm] (default: as above).
+    kappa : float, optional
+        Barrier stiffness [MPa] (default: as above).
+    **kw
+        Further fields of :class:`ContactSettings`.
+
+    Returns
+    -------
+    ContactSettings
+    """
     if dhat is None:
         prims = collision_primitives(facets, X.shape[1])
         edges = prims if X.shape[1] == 2 else np.concatenate([prims[:, [0, 1]], prims[:, [1, 2]], prims[:, [2, 0]]])
@@ -126,12 +160,22 @@ def _component_filter(components: np.ndarray):
 class Contact(EnergyTerm):
     """IPC barrier (and optional lagged friction) between the boundaries of different components.
 
-    X: reference positions (n_nodes, d) [mm]; facets: boundary facets (nf, nfn) in full node numbers
-    (meshio order, outward); components: (n_nodes,) component id of every node.
-
     Its Hessian is exact (not projected) unless the solver asks: projecting the barrier Hessian
     always doubled Newton iterations and failed a Hertz test; ``fallback_projection`` lets the
     solver project it when the exact Hessian gives no descent.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n_nodes, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        Boundary facets in full node numbers (meshio order, outward).
+    components : ndarray, shape (n_nodes,)
+        Component id of every node.
+    settings : ContactSettings
+        Barrier and friction parameters.
+    name : str, optional
+        The term's name.
     """
 
     fallback_projection = True

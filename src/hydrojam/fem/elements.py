@@ -133,11 +133,28 @@ def _tet_rule(degree: int) -> tuple[np.ndarray, np.ndarray]:
 def quadrature(shape: str, degree: int) -> tuple[np.ndarray, np.ndarray]:
     """Quadrature rule on a reference simplex, exact for polynomials of total degree ``degree``.
 
-    ``shape`` is ``"line"`` ([0, 1]), ``"triangle"`` or ``"tetrahedron"``. Returns points ``(nq, dim)``
-    in reference coordinates (all inside the shape) and weights ``(nq,)``, all positive, summing to
-    the reference measure (1, 1/2, 1/6). Rules: line: Gauss-Legendre (any degree); triangle: 1 point
-    (deg 1), 3 points (2), Dunavant 6 points (3-4), 7 points (5); tet: 1 point (1), 4 points (2),
-    Walkington 14 points (3-5); higher degrees: conical Gauss-Jacobi products.
+    Rules: line: Gauss-Legendre (any degree); triangle: 1 point (deg 1), 3 points (2), Dunavant 6
+    points (3-4), 7 points (5); tet: 1 point (1), 4 points (2), Walkington 14 points (3-5); higher
+    degrees: conical Gauss-Jacobi products.
+
+    Parameters
+    ----------
+    shape : {"line", "triangle", "tetrahedron"}
+        The reference shape (the line is [0, 1]).
+    degree : int
+        Total polynomial degree integrated exactly, >= 0.
+
+    Returns
+    -------
+    points : ndarray, shape (nq, dim)
+        Points in reference coordinates [-], all inside the shape.
+    weights : ndarray, shape (nq,)
+        Weights, all positive, summing to the reference measure (1, 1/2, 1/6).
+
+    Raises
+    ------
+    ValueError
+        For a negative degree or an unknown shape.
     """
     degree = int(degree)
     if degree < 0:
@@ -287,7 +304,22 @@ _BY_MESHIO_TYPE = {el.meshio_type: el for el in ELEMENTS.values()}
 
 
 def element_for_meshio_type(cell_type: str) -> ReferenceElement:
-    """The reference element of a meshio cell type (``line``, ``line3``, ``triangle``, ...)."""
+    """The reference element of a meshio cell type.
+
+    Parameters
+    ----------
+    cell_type : str
+        The meshio cell type (``line``, ``line3``, ``triangle``, ...).
+
+    Returns
+    -------
+    ReferenceElement
+
+    Raises
+    ------
+    ValueError
+        For an unsupported cell type.
+    """
     try:
         return _BY_MESHIO_TYPE[cell_type]
     except KeyError:
@@ -356,10 +388,29 @@ def physical_gradients(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shape-function gradients in physical coordinates and quadrature volume elements.
 
-    ``coords``: ``(ne, nen, dim)`` node coordinates [mm] of ``ne`` elements (``dim == element.dim``).
-    The rule defaults to the element's own. Returns ``dNdX`` ``(ne, nq, nen, dim)`` [1/mm] and
-    ``dV`` ``(ne, nq)`` = ``det J * weight`` [mm^dim]. Raises ``ValueError`` naming the first
-    element with ``det J <= 0`` at a quadrature point (inverted or degenerate).
+    Parameters
+    ----------
+    element : ReferenceElement
+        The element type.
+    coords : ndarray, shape (ne, nen, dim)
+        Node coordinates of ``ne`` elements [mm] (``dim == element.dim``).
+    quad_points : ndarray, shape (nq, dim), optional
+        Quadrature points in reference coordinates [-] (default: the element's own rule).
+    quad_weights : ndarray, shape (nq,), optional
+        Their weights [-].
+
+    Returns
+    -------
+    dNdX : ndarray, shape (ne, nq, nen, dim)
+        Shape-function gradients [1/mm].
+    dV : ndarray, shape (ne, nq)
+        ``det J * weight`` [mm^dim].
+
+    Raises
+    ------
+    ValueError
+        For ``coords`` of the wrong shape, or naming the first element with ``det J <= 0`` at a
+        quadrature point (inverted or degenerate).
     """
     coords = np.asarray(coords, dtype=float)
     if coords.ndim != 3 or coords.shape[1:] != (element.nen, element.dim):
@@ -395,13 +446,36 @@ def facet_measure(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Shape values, area elements and unit normals of boundary facets.
 
-    ``facet`` is a ``line2``/``line3`` (in 2D) or ``tri3``/``tri6`` (in 3D) element; ``coords``
-    ``(nf, nfn, facet.dim + 1)`` [mm]. Returns ``N`` ``(nq, nfn)``, ``dA`` ``(nf, nq)`` = area element
-    times weight [mm^(dim-1)], and unit normals ``(nf, nq, dim)``: for an edge from node 0 to node 1
-    with tangent ``t = dx/dxi``, ``n = (t_y, -t_x) / |t|``; for a triangle,
-    ``n ~ dx/dxi1 x dx/dxi2`` (the direction of ``(x1 - x0) x (x2 - x0)``). With the facets of
-    ``ReferenceElement.facets`` these normals point out of positively oriented elements. Raises
-    ``ValueError`` naming the first facet with zero area element at a quadrature point.
+    For an edge from node 0 to node 1 with tangent ``t = dx/dxi``, ``n = (t_y, -t_x) / |t|``;
+    for a triangle, ``n ~ dx/dxi1 x dx/dxi2`` (the direction of ``(x1 - x0) x (x2 - x0)``). With
+    the facets of ``ReferenceElement.facets`` these normals point out of positively oriented
+    elements.
+
+    Parameters
+    ----------
+    facet : ReferenceElement
+        A ``line2``/``line3`` (in 2D) or ``tri3``/``tri6`` (in 3D) element.
+    coords : ndarray, shape (nf, nfn, facet.dim + 1)
+        Node coordinates of the facets [mm].
+    quad_points : ndarray, shape (nq, facet.dim), optional
+        Quadrature points in reference coordinates [-] (default: the facet's own rule).
+    quad_weights : ndarray, shape (nq,), optional
+        Their weights [-].
+
+    Returns
+    -------
+    N : ndarray, shape (nq, nfn)
+        Shape values [-].
+    dA : ndarray, shape (nf, nq)
+        Area element times weight [mm^(dim-1)].
+    normals : ndarray, shape (nf, nq, dim)
+        Unit normals [-].
+
+    Raises
+    ------
+    ValueError
+        For a facet element of the wrong dimension, ``coords`` of the wrong shape, or naming the
+        first facet with zero area element at a quadrature point.
     """
     if facet.dim not in (1, 2):
         raise ValueError(f"facet element must be of dimension 1 or 2, got {facet.name} (dim {facet.dim})")

@@ -201,11 +201,20 @@ def _kernels():
 class LinearSolver:
     """Solve K u = b for symmetric sparse K.
 
-    ``method``: "pardiso", "scipy" or "auto" (PARDISO where it loads, else SciPy's SuperLU).
     ``seconds`` accumulates the wall time spent in solves [s], ``calls`` the solves and
     ``analyses`` PARDISO's symbolic analyses among them (for benchmarks). Reads
     ``HYDROJAM_SOLVER_THREADS`` (MKL threads, a positive integer; default 1) and
-    ``HYDROJAM_REUSE_ANALYSIS`` (0 or 1; default 1) when constructed: ValueError otherwise.
+    ``HYDROJAM_REUSE_ANALYSIS`` (0 or 1; default 1) when constructed.
+
+    Parameters
+    ----------
+    method : {"auto", "pardiso", "scipy"}, optional
+        PARDISO, SciPy's SuperLU, or "auto": PARDISO where it loads, else SciPy's SuperLU.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``method`` or an invalid environment setting.
     """
 
     reuse_ordering: bool = True

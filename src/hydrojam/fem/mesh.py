@@ -102,14 +102,22 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 class Mesh:
     """Simplex mesh in mm.
 
-    ``points`` (n_nodes, dim) float64: dim 2 means the x-z plane (columns x, z), dim 3 is x, y, z.
-    ``cells`` (n_cells, nen) int64 in meshio/VTK node order, positively oriented.
-    ``cell_groups``: name -> sorted int64 cell indices. ``facet_groups``: name -> (nf, nfn) int64
-    node indices of facets (``facet_type``), corners then mid-edge nodes in meshio order; facets on
-    the mesh boundary are oriented outward. Arrays are stored as read-only copies.
+    Arrays are stored as read-only copies. Build with :meth:`create` to normalise orientation and
+    drop unused nodes; the plain constructor only validates.
 
-    Build with :meth:`create` to normalise orientation and drop unused nodes; the plain
-    constructor only validates.
+    Parameters
+    ----------
+    points : ndarray, shape (n_nodes, dim)
+        Node positions [mm], float64: dim 2 means the x-z plane (columns x, z), dim 3 is x, y, z.
+    cells : ndarray, shape (n_cells, nen)
+        int64 node indices in meshio/VTK node order, positively oriented.
+    cell_type : str
+        The meshio cell type.
+    cell_groups : dict of str to ndarray, optional
+        Name -> sorted int64 cell indices.
+    facet_groups : dict of str to ndarray, optional
+        Name -> (nf, nfn) int64 node indices of facets (``facet_type``), corners then mid-edge
+        nodes in meshio order; facets on the mesh boundary are oriented outward.
     """
 
     points: np.ndarray
@@ -418,7 +426,21 @@ def merge(parts: dict[str, Mesh]) -> Mesh:
     """Separate meshes side by side in one Mesh (no node is shared: separate bodies).
 
     Groups are renamed ``"<part>"`` (all cells of a part), ``"<part>/<group>"`` for each cell and
-    facet group. All parts must have the same cell type.
+    facet group.
+
+    Parameters
+    ----------
+    parts : dict of str to Mesh
+        Part name -> mesh [mm]; all of the same cell type.
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    ValueError
+        For parts of different cell types.
     """
     types = {m.cell_type for m in parts.values()}
     if len(types) != 1:

@@ -50,12 +50,17 @@ def _set_options() -> None:
 
 @contextmanager
 def gmsh_session() -> Iterator[str]:
-    """Context manager for a gmsh session holding a fresh, current model (its name is yielded).
+    """Context manager for a gmsh session holding a fresh, current model.
 
     Initialises gmsh without signal handling and quiet, single-threaded, with a fixed random
     seed so meshes are reproducible. Nesting is safe: an inner session adds its own model,
     removes it on exit and restores the outer model; only the outermost session finalises
     gmsh, also when an exception escapes.
+
+    Yields
+    ------
+    str
+        The model's name.
     """
     outer = bool(gmsh.isInitialized())
     if not outer:
@@ -145,8 +150,24 @@ def extract_mesh(dim: int, order: int | None = None) -> Mesh:
     Physical groups of dimension ``dim`` become cell groups, those of dimension ``dim - 1``
     facet groups (by name). Only nodes of elements in physical groups are kept, numbered
     compactly in gmsh node-tag order; cells are sorted by gmsh element tag; node order is
-    converted to meshio's and orientation normalised (see :meth:`Mesh.create`). With ``order``
-    given, the mesh is first brought to that order (``setOrder``) if it is not already.
+    converted to meshio's and orientation normalised (see :meth:`Mesh.create`).
+
+    Parameters
+    ----------
+    dim : int
+        The cells' dimension, 2 or 3.
+    order : int, optional
+        Bring the mesh to this order first (``setOrder``) if it is not already.
+
+    Returns
+    -------
+    Mesh
+        Positions in the model's length unit [mm].
+
+    Raises
+    ------
+    ValueError
+        Where the model has no physical group of dimension ``dim``, or more than one cell type.
     """
     cell_pg = _physical_groups(dim)
     if not cell_pg:
@@ -273,11 +294,30 @@ def add_groups(dim: int, cell_groups: dict[str, list[int]], facet_groups: dict[s
 
 def rectangle(lx: float, ly: float, size: float, order: int = 2, origin=(0.0, 0.0),
               structured: bool = False, arrangement: str = "Left") -> Mesh:
-    """Rectangle [x0, x0 + lx] x [z0, z0 + ly] (mm) of triangles with element size ``size`` (mm).
+    """Rectangle [x0, x0 + lx] x [z0, z0 + ly] of triangles.
 
-    Cell group "body"; facet groups "left", "right", "bottom", "top". ``structured`` gives a
-    transfinite regular triangulation with round(lx/size) x round(ly/size) divisions (gmsh
-    ``arrangement`` "Left", "Right", "Alternate", ...), for convergence studies."""
+    Cell group "body"; facet groups "left", "right", "bottom", "top".
+
+    Parameters
+    ----------
+    lx, ly : float
+        Side lengths along x and z [mm].
+    size : float
+        Element size [mm].
+    order : {1, 2}, optional
+        Element order.
+    origin : tuple of float, optional
+        The corner (x0, z0) [mm].
+    structured : bool, optional
+        A transfinite regular triangulation with round(lx/size) x round(ly/size) divisions, for
+        convergence studies.
+    arrangement : str, optional
+        gmsh's arrangement of a structured mesh ("Left", "Right", "Alternate", ...).
+
+    Returns
+    -------
+    Mesh
+    """
     with gmsh_session():
         set_mesh_size(size)
         x0, y0 = float(origin[0]), float(origin[1])
@@ -297,8 +337,23 @@ def rectangle(lx: float, ly: float, size: float, order: int = 2, origin=(0.0, 0.
 
 
 def disk(radius: float, size: float, order: int = 2, centre=(0.0, 0.0)) -> Mesh:
-    """Disk of ``radius`` (mm) about ``centre`` in the x-z plane. Cell group "body", facet
-    group "boundary"."""
+    """Disk about ``centre`` in the x-z plane. Cell group "body", facet group "boundary".
+
+    Parameters
+    ----------
+    radius : float
+        Radius [mm].
+    size : float
+        Element size [mm].
+    order : {1, 2}, optional
+        Element order.
+    centre : tuple of float, optional
+        Centre (x, z) [mm].
+
+    Returns
+    -------
+    Mesh
+    """
     with gmsh_session():
         set_mesh_size(size)
         s = gmsh.model.occ.addDisk(float(centre[0]), float(centre[1]), 0.0, radius, radius)
@@ -309,8 +364,25 @@ def disk(radius: float, size: float, order: int = 2, centre=(0.0, 0.0)) -> Mesh:
 
 
 def box(lx: float, ly: float, lz: float, size: float, order: int = 2, origin=(0.0, 0.0, 0.0)) -> Mesh:
-    """Box [x0, x0+lx] x [y0, y0+ly] x [z0, z0+lz] (mm) of tetrahedra. Cell group "body";
-    facet groups "xmin", "xmax", "ymin", "ymax", "zmin", "zmax"."""
+    """Box [x0, x0+lx] x [y0, y0+ly] x [z0, z0+lz] of tetrahedra.
+
+    Cell group "body"; facet groups "xmin", "xmax", "ymin", "ymax", "zmin", "zmax".
+
+    Parameters
+    ----------
+    lx, ly, lz : float
+        Side lengths [mm].
+    size : float
+        Element size [mm].
+    order : {1, 2}, optional
+        Element order.
+    origin : tuple of float, optional
+        The corner (x0, y0, z0) [mm].
+
+    Returns
+    -------
+    Mesh
+    """
     with gmsh_session():
         set_mesh_size(size)
         o = [float(v) for v in origin]
@@ -325,7 +397,23 @@ def box(lx: float, ly: float, lz: float, size: float, order: int = 2, origin=(0.
 
 
 def ball(radius: float, size: float, order: int = 2, centre=(0.0, 0.0, 0.0)) -> Mesh:
-    """Ball of ``radius`` (mm) about ``centre``. Cell group "body", facet group "boundary"."""
+    """Ball about ``centre``. Cell group "body", facet group "boundary".
+
+    Parameters
+    ----------
+    radius : float
+        Radius [mm].
+    size : float
+        Element size [mm].
+    order : {1, 2}, optional
+        Element order.
+    centre : tuple of float, optional
+        Centre (x, y, z) [mm].
+
+    Returns
+    -------
+    Mesh
+    """
     with gmsh_session():
         set_mesh_size(size)
         v = gmsh.model.occ.addSphere(*[float(c) for c in centre], radius)
@@ -336,9 +424,26 @@ def ball(radius: float, size: float, order: int = 2, centre=(0.0, 0.0, 0.0)) -> 
 
 
 def bonded_rectangles(lx1: float, lx2: float, ly: float, size: float, order: int = 2) -> Mesh:
-    """Two rectangles [0, lx1] x [0, ly] and [lx1, lx1 + lx2] x [0, ly] (mm) meshed conformally:
-    they share the nodes on x = lx1 (a bonded interface). Cell groups "left_body",
-    "right_body"; facet groups "left", "right", "bottom", "top" (outer boundary pieces)."""
+    """Two rectangles [0, lx1] x [0, ly] and [lx1, lx1 + lx2] x [0, ly] meshed conformally.
+
+    They share the nodes on x = lx1 (a bonded interface). Cell groups "left_body",
+    "right_body"; facet groups "left", "right", "bottom", "top" (outer boundary pieces).
+
+    Parameters
+    ----------
+    lx1, lx2 : float
+        Widths of the two rectangles along x [mm].
+    ly : float
+        Their common height along z [mm].
+    size : float
+        Element size [mm].
+    order : {1, 2}, optional
+        Element order.
+
+    Returns
+    -------
+    Mesh
+    """
     with gmsh_session():
         set_mesh_size(size)
         a = gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, lx1, ly)
@@ -358,9 +463,30 @@ def bonded_rectangles(lx1: float, lx2: float, ly: float, size: float, order: int
 
 
 def disks(centres, radii, size: float, order: int = 2) -> Mesh:
-    """Separate disks (mm) that share no nodes (separate bodies, e.g. for contact). Cell groups
-    "disk0", "disk1", ...; facet groups "disk0_boundary", ... ``radii`` may be a scalar.
-    Overlapping disks are rejected."""
+    """Separate disks that share no nodes (separate bodies, e.g. for contact).
+
+    Cell groups "disk0", "disk1", ...; facet groups "disk0_boundary", ...
+
+    Parameters
+    ----------
+    centres : array_like, shape (m, 2)
+        Centres (x, z) [mm].
+    radii : float or array_like, shape (m,)
+        Radii [mm]; a scalar for all.
+    size : float
+        Element size [mm].
+    order : {1, 2}, optional
+        Element order.
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    ValueError
+        For overlapping disks.
+    """
     centres = np.atleast_2d(np.asarray(centres, dtype=float))
     radii = np.broadcast_to(np.asarray(radii, dtype=float), (len(centres),))
     for i, j in itertools.combinations(range(len(centres)), 2):
@@ -398,10 +524,30 @@ def quarter_disk(radius: float, size: float, order: int = 2) -> Mesh:
 
 
 def annulus(r_in: float, r_out: float, size: float, order: int = 2) -> Mesh:
-    """Annulus r_in <= r <= r_out (mm) about the origin in the x-z plane (a thick-walled
-    cylinder in plane strain). Each circle is drawn as four quarter arcs, so nodes lie on both
-    axes at (+-r, 0) and (0, +-r) for symmetry conditions. Cell group "body"; facet groups
-    "inner" and "outer"."""
+    """Annulus r_in <= r <= r_out about the origin in the x-z plane (a thick-walled cylinder in
+    plane strain).
+
+    Each circle is drawn as four quarter arcs, so nodes lie on both axes at (+-r, 0) and
+    (0, +-r) for symmetry conditions. Cell group "body"; facet groups "inner" and "outer".
+
+    Parameters
+    ----------
+    r_in, r_out : float
+        Inner and outer radius [mm], 0 < r_in < r_out.
+    size : float
+        Element size [mm].
+    order : {1, 2}, optional
+        Element order.
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    ValueError
+        Unless 0 < r_in < r_out.
+    """
     if not 0 < r_in < r_out:
         raise ValueError(f"annulus needs 0 < r_in < r_out, got r_in = {r_in}, r_out = {r_out}")
     with gmsh_session():
@@ -441,9 +587,32 @@ def ball_octant(radius: float, size: float, order: int = 2) -> Mesh:
 
 def shell_sector(r_in: float, r_out: float, size: float, dim: int = 3, order: int = 2) -> Mesh:
     """The part x, z >= 0 (2D: a quarter annulus) or x, y, z >= 0 (3D: an octant of a spherical
-    shell) of the shell r_in <= r <= r_out (mm) about the origin, for symmetric problems. Cell
-    group "body"; facet groups "xsym", "zsym" (and in 3D "ysym"): the symmetry planes, "inner"
-    (r = r_in) and "outer" (r = r_out). 2D is drawn in the x-z plane like :func:`quarter_disk`."""
+    shell) of the shell r_in <= r <= r_out about the origin, for symmetric problems.
+
+    Cell group "body"; facet groups "xsym", "zsym" (and in 3D "ysym"): the symmetry planes,
+    "inner" (r = r_in) and "outer" (r = r_out). 2D is drawn in the x-z plane like
+    :func:`quarter_disk`.
+
+    Parameters
+    ----------
+    r_in, r_out : float
+        Inner and outer radius [mm], 0 < r_in < r_out.
+    size : float
+        Element size [mm].
+    dim : (2, 3), optional
+        The dimension.
+    order : {1, 2}, optional
+        Element order.
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    ValueError
+        Unless 0 < r_in < r_out and dim is 2 or 3.
+    """
     if not 0 < r_in < r_out:
         raise ValueError(f"shell_sector needs 0 < r_in < r_out, got r_in = {r_in}, r_out = {r_out}")
     if dim not in (2, 3):

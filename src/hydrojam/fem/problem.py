@@ -16,9 +16,14 @@ from hydrojam.fem.terms import EnergyTerm
 
 @dataclass(frozen=True)
 class Dirichlet:
-    """Prescribed DOFs: x[dof] = X[dof] + s * displacement [mm] at load parameter s.
+    """Prescribed DOFs: x[dof] = X[dof] + s * displacement at load parameter s.
 
-    ``dofs`` index the flat position vector (dof = node*d + component).
+    Parameters
+    ----------
+    dofs : ndarray of int
+        Indices into the flat position vector (dof = node*d + component).
+    displacement : ndarray of float
+        Displacement of each DOF at s = 1 [mm].
     """
 
     dofs: np.ndarray
@@ -30,7 +35,21 @@ class Dirichlet:
 
 
 def fixed(nodes, dim: int, components: Sequence[int] | None = None) -> Dirichlet:
-    """Hold ``nodes`` at their reference positions (all components, or the given ones)."""
+    """Hold nodes at their reference positions (all components, or the given ones).
+
+    Parameters
+    ----------
+    nodes : array_like of int
+        The nodes.
+    dim : int
+        Spatial dimension d.
+    components : sequence of int, optional
+        The components held (default: all).
+
+    Returns
+    -------
+    Dirichlet
+    """
     comps = range(dim) if components is None else components
     nodes = np.asarray(nodes, dtype=np.int64)
     dofs = (nodes[:, None] * dim + np.asarray(list(comps))[None, :]).ravel()
@@ -38,7 +57,23 @@ def fixed(nodes, dim: int, components: Sequence[int] | None = None) -> Dirichlet
 
 
 def prescribed(nodes, dim: int, component: int, displacement: float) -> Dirichlet:
-    """Move component ``component`` of ``nodes`` by ``displacement`` [mm] at s = 1 (linear in s)."""
+    """Move one component of nodes by a displacement at s = 1 (linear in s).
+
+    Parameters
+    ----------
+    nodes : array_like of int
+        The nodes.
+    dim : int
+        Spatial dimension d.
+    component : int
+        The component moved.
+    displacement : float
+        The displacement at s = 1 [mm].
+
+    Returns
+    -------
+    Dirichlet
+    """
     nodes = np.asarray(nodes, dtype=np.int64)
     return Dirichlet(nodes * dim + component, np.full(len(nodes), float(displacement)))
 
@@ -47,10 +82,18 @@ def prescribed(nodes, dim: int, component: int, displacement: float) -> Dirichle
 class Problem:
     """What the load-path driver solves.
 
-    ``X``: reference positions (n, d) [mm]. ``terms(s)`` returns the energy terms at load
-    parameter s in [0, 1] (materials at the stimulus of s, loads scaled by s, ...), a list summed
-    in order whose ``name``s are unique (:func:`hydrojam.fem.terms.by_name` addresses them).
-    ``force_scale`` [N] sets the floor of the residual tolerance.
+    Parameters
+    ----------
+    X : ndarray, shape (n, d)
+        Reference positions [mm].
+    terms : callable
+        ``terms(s)``: the energy terms at load parameter s in [0, 1] (materials at the stimulus of
+        s, loads scaled by s, ...), a list summed in order whose ``name`` attributes are unique
+        (:func:`hydrojam.fem.terms.by_name` addresses them).
+    dirichlet : list of Dirichlet, optional
+        The prescribed DOFs.
+    force_scale : float, optional
+        Sets the floor of the residual tolerance [N].
     """
 
     X: np.ndarray

@@ -88,7 +88,17 @@ def by_name(terms: Iterable[EnergyTerm]) -> dict[str, EnergyTerm]:
 
 
 class LinearTerm(EnergyTerm):
-    """A term linear in x: E = -f . (x - X), the negative work of dead nodal forces f [N]."""
+    """A term linear in x: E = -f . (x - X), the negative work of dead nodal forces f.
+
+    Parameters
+    ----------
+    forces : ndarray, shape (n, d)
+        Nodal forces f [N; N/mm per unit depth in 2D].
+    reference : ndarray, shape (n, d)
+        Reference positions X [mm].
+    name : str, optional
+        The term's name.
+    """
 
     def __init__(self, forces: np.ndarray, reference: np.ndarray, name: str = "load"):
         self.forces = np.asarray(forces, dtype=float).reshape(reference.shape)
@@ -132,18 +142,42 @@ def nodal_areas(reference: np.ndarray, facets: np.ndarray, facet_type: str | Non
 
 
 def surface_load(reference: np.ndarray, facets: np.ndarray, traction, facet_type: str | None = None) -> LinearTerm:
-    """Dead traction ``traction`` [MPa] (length d) on reference boundary facets (nf, nfn).
+    """Dead traction on reference boundary facets, as a linear term.
 
     Consistent nodal forces f_a = sum over facets of the integral of N_a t dA (reference area):
     :func:`nodal_areas` times t.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        Boundary facets in node numbers.
+    traction : array_like, shape (d,)
+        The traction t [MPa].
+    facet_type : str, optional
+        The facets' element name (default: inferred from d and nfn).
+
+    Returns
+    -------
+    LinearTerm
+        Named "load"; nodal forces [N; N/mm per unit depth in 2D].
     """
     areas = nodal_areas(reference, facets, facet_type)
     return LinearTerm(areas[:, None] * np.asarray(traction, dtype=float)[None, :], reference)
 
 
 class TimedTerm(EnergyTerm):
-    """Another term with every protocol member passed through, and the wall time [s] of each call
-    reported as ``record(method_name, seconds)`` (the time shares of simulations and benchmarks)."""
+    """Another term with every protocol member passed through, and the wall time of each call
+    reported (the time shares of simulations and benchmarks).
+
+    Parameters
+    ----------
+    term : EnergyTerm
+        The term wrapped.
+    record : callable
+        ``record(method_name, seconds)``, called after each call with its wall time [s].
+    """
 
     def __init__(self, term: EnergyTerm, record: Callable[[str, float], None]):
         self._term, self._record = term, record
@@ -184,8 +218,17 @@ class TimedTerm(EnergyTerm):
 
 @dataclass(frozen=True)
 class ScaledTerm(EnergyTerm):
-    """``scale`` times another term (e.g. a load ramped with the load parameter s); every
-    optional part is the wrapped term's (its forces in play scaled too), and so is its name."""
+    """``scale`` times another term (e.g. a load ramped with the load parameter s).
+
+    Every optional part is the wrapped term's (its forces in play scaled too), and so is its name.
+
+    Parameters
+    ----------
+    term : EnergyTerm
+        The term wrapped.
+    scale : float
+        The factor [-].
+    """
 
     term: EnergyTerm
     scale: float
@@ -218,8 +261,24 @@ class ScaledTerm(EnergyTerm):
 
 
 def body_load(reference: np.ndarray, cells: np.ndarray, element, force_density) -> LinearTerm:
-    """Dead body force ``force_density`` [N/mm^3] (length d), e.g. density x gravity, on cells
-    (ne, nen) of ``element``: consistent nodal forces f_a = integral of N_a b dV."""
+    """Dead body force on cells, as a linear term: consistent nodal forces f_a = integral of N_a b dV.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    cells : ndarray, shape (ne, nen)
+        The cells in node numbers.
+    element : ReferenceElement
+        The cells' element type.
+    force_density : array_like, shape (d,)
+        The body force b [N/mm^3], e.g. density x gravity.
+
+    Returns
+    -------
+    LinearTerm
+        Named "load"; nodal forces [N; N/mm per unit depth in 2D].
+    """
     cells = np.asarray(cells)
     _, dV = physical_gradients(element, reference[cells])
     N = element.shape(element.quad_points)
@@ -230,15 +289,26 @@ def body_load(reference: np.ndarray, cells: np.ndarray, element, force_density) 
 
 
 class ViscousStabilisation(EnergyTerm):
-    """Artificial viscous damping of a load step (as ABAQUS's *STATIC, STABILIZE): the energy
-    c/2 sum_a w_a |x_a - x_a^n|^2, with x^n the state at the start of the step (``begin_step``),
-    w_a [mm^2 in 2D, mm^3 in 3D] the nodal share of the reference volume and c [N/mm^4 in 3D;
-    N/mm^3 per unit depth in 2D] the damping.
+    """Artificial viscous damping of a load step (as ABAQUS's *STATIC, STABILIZE).
+
+    The energy c/2 sum_a w_a |x_a - x_a^n|^2, with x^n the state at the start of the step
+    (``begin_step``), w_a the nodal share of the reference volume and c the damping.
 
     It stiffens only what has no stiffness of its own (a buckling particle column, a particle's
     rigid rotation, a soft membrane's bending) so that a step through a snap travels gradually
     instead of being a Newton step into the unknown; its force c w (x - x^n) is not part of the
     physics and must be released at the end (``scale`` = 0) or shown to be small.
+
+    Parameters
+    ----------
+    weights : ndarray, shape (n,)
+        Nodal shares w_a of the reference volume [mm^2 in 2D, mm^3 in 3D].
+    damping : float
+        The damping c [N/mm^4 in 3D; N/mm^3 per unit depth in 2D].
+    dim : int
+        Spatial dimension d.
+    name : str, optional
+        The term's name.
     """
 
     def __init__(self, weights: np.ndarray, damping: float, dim: int, name: str = "stabilisation"):
@@ -352,9 +422,10 @@ def _quadrature_for(fe, degree: int):
 
 
 class PressureTerm(EnergyTerm):
-    """A uniform pressure ``pressure`` [MPa] on boundary ``facets`` (nf, nfn) of a body; an
-    energy term named "pressure". Facets: line2/line3 in 2D (plane strain: energies per unit
-    depth [mJ/mm], forces [N/mm]), tri3/tri6 in 3D.
+    """A uniform pressure on boundary facets of a body; an energy term named "pressure".
+
+    Facets: line2/line3 in 2D (plane strain: energies per unit depth [mJ/mm], forces [N/mm]),
+    tri3/tri6 in 3D.
 
     **Orientation.** The facets must point *out of the body* (normals as in
     :func:`~hydrojam.fem.elements.facet_measure`; mesh facet groups on the boundary are, and
@@ -375,6 +446,21 @@ class PressureTerm(EnergyTerm):
 
     **Dead** (``follower=False``): the traction -p N on the reference normals, fixed nodal forces
     f_a = -p int N_a N dA (a :class:`LinearTerm`); right only while rotations are small.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        The boundary facets, in node numbers.
+    pressure : float
+        The pressure p [MPa].
+    follower : bool, optional
+        A follower (True) or a dead (False) pressure.
+    cells : ndarray, shape (ne, nen), optional
+        The body's cells, to orient the facets outward.
+    name : str, optional
+        The term's name.
     """
 
     name = "pressure"
@@ -457,20 +543,54 @@ def face_weights(reference: np.ndarray, facets: np.ndarray) -> np.ndarray:
 
 
 def resultant_load(reference: np.ndarray, facets: np.ndarray, force, name: str = "tip_force") -> LinearTerm:
-    """A dead force ``force`` [N; N/mm in 2D, per unit depth] (length d) spread over boundary
-    ``facets`` as a uniform traction on their reference area: nodal forces w_a F with the
-    weights of :func:`face_weights`, so its work is F . (mean displacement of the face)."""
+    """A dead force spread over boundary facets as a uniform traction on their reference area.
+
+    Nodal forces w_a F with the weights of :func:`face_weights`, so its work is
+    F . (mean displacement of the face).
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        The boundary facets.
+    force : array_like, shape (d,)
+        The resultant F [N; N/mm per unit depth in 2D].
+    name : str, optional
+        The term's name.
+
+    Returns
+    -------
+    LinearTerm
+    """
     w = face_weights(reference, facets)
     return LinearTerm(w[:, None] * np.asarray(force, dtype=float)[None, :], reference, name)
 
 
 class CentroidSpring(EnergyTerm):
-    """A stiff linear spring between a face's mean position c(x) = sum_a w_a x_a (weights of
-    :func:`face_weights`) and a ``target`` [mm], in the ``components`` given: E = k/2 sum_i
-    (c_i - target_i)^2, ``stiffness`` k [N/mm; N/mm per unit depth in 2D]. A penalty form of a
-    prescribed face displacement that leaves the face free to rotate and deform (a pin or a
-    frictionless stop, not a guided end); :meth:`reaction` is the force the spring exerts on the
-    face [N] and the spring's stretch (c - target) is the constraint's error, F/k."""
+    """A stiff linear spring between a face's mean position and a target.
+
+    c(x) = sum_a w_a x_a (weights of :func:`face_weights`), E = k/2 sum_i (c_i - target_i)^2 over
+    the ``components`` given. A penalty form of a prescribed face displacement that leaves the
+    face free to rotate and deform (a pin or a frictionless stop, not a guided end);
+    :meth:`reaction` is the force the spring exerts on the face [N] and the spring's stretch
+    (c - target) is the constraint's error, F/k.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    facets : ndarray, shape (nf, nfn)
+        The face's boundary facets.
+    target : array_like, shape (d,)
+        The target position [mm].
+    stiffness : float
+        The stiffness k [N/mm; N/mm per unit depth in 2D].
+    components : sequence of int, optional
+        The components held.
+    name : str, optional
+        The term's name.
+    """
 
     name = "tip_spring"
 

@@ -36,11 +36,21 @@ Controller = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 class VolumeTerm(EnergyTerm):
     """E = sum_b k_b/2 (V_b(x) - Vbar_b)^2 over bodies (see the module docstring), named "volume".
 
-    ``reference`` (n, d) [mm]; ``bodies``: per body its (cells, boundary facets), facets
-    line2/line3 in 2D, tri3/tri6 in 3D, each set closing the body's surface (oriented here with
-    the body's cells). ``controller``: called at every ``begin_step`` with the bodies' volumes
-    there; it returns the targets [mm^2 or mm^3] and stiffnesses (>= 0) for the step. Before the
-    first step (and with no controller) the stiffnesses are 0: the term is zero.
+    Before the first step (and with no controller) the stiffnesses are 0: the term is zero.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    bodies : sequence of (ndarray, ndarray)
+        Per body its (cells, boundary facets); facets line2/line3 in 2D, tri3/tri6 in 3D, each
+        set closing the body's surface (oriented here with the body's cells).
+    controller : callable, optional
+        ``controller(volumes) -> (targets, stiffnesses)``, called at every ``begin_step`` with
+        the bodies' volumes there [mm^2 or mm^3]; it returns the targets [mm^2 or mm^3] and
+        stiffnesses (>= 0) for the step.
+    name : str, optional
+        The term's name.
     """
 
     def __init__(self, reference: np.ndarray, bodies: Sequence[tuple[np.ndarray, np.ndarray]],
@@ -172,11 +182,26 @@ LocalController = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
 class LocalVolumeTerm(EnergyTerm):
-    """E = sum over quadrature points of k/2 (det F - Jbar)^2 dV over the cells of one element
-    type, named "volume": the volume held point by point (every element's own water content,
-    say), with k [MPa] and Jbar (det F from the reference) per quadrature point set at every
-    ``begin_step`` by a ``controller`` from det F there (before the first step: k = 0, E = 0).
-    Its Hessian has the sparsity of the cells' element matrices (no dense block, in 2D or 3D).
+    """E = sum over quadrature points of k/2 (det F - Jbar)^2 dV over the cells of one element type,
+    named "volume": the volume held point by point (every element's own water content, say).
+
+    k and Jbar (det F from the reference) per quadrature point are set at every ``begin_step``
+    by the controller from det F there (before the first step: k = 0, E = 0). Its Hessian has
+    the sparsity of the cells' element matrices (no dense block, in 2D or 3D).
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        Reference positions [mm].
+    cells : ndarray, shape (ne, nen)
+        The cells, in node numbers.
+    element : ReferenceElement
+        Their element type.
+    controller : callable, optional
+        ``controller(J) -> (Jbar, k)``, all of shape (ne, nq): from det F at the quadrature
+        points at the start of a load step [-], the targets Jbar [-] and stiffnesses k [MPa].
+    name : str, optional
+        The term's name.
     """
 
     def __init__(self, reference: np.ndarray, cells: np.ndarray, element, controller: LocalController | None = None,

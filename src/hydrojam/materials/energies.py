@@ -40,7 +40,17 @@ B1_DEFAULT = -0.0569
 
 @dataclass(frozen=True)
 class MaterialResponse:
-    """Energy density W [MPa], stress P [MPa] and tangent A = dP/dF [MPa] at many points."""
+    """Energy density, stress and tangent of a material at many points.
+
+    Parameters
+    ----------
+    energy : ndarray, shape (...)
+        Stored energy per reference volume W [MPa]; +inf where inadmissible.
+    stress : ndarray, shape (..., d, d)
+        First Piola-Kirchhoff stress P = dW/dF [MPa].
+    tangent : ndarray, shape (..., d, d, d, d) or None
+        Tangent A = dP/dF [MPa], ``A[..., i, J, k, L] = dP_iJ/dF_kL``; None where not asked for.
+    """
 
     energy: np.ndarray
     stress: np.ndarray
@@ -49,18 +59,45 @@ class MaterialResponse:
 
 @runtime_checkable
 class Material(Protocol):
-    """What the finite-element layer needs from a material. Optional, outside the protocol:
-    ``evaluate_compiled(F, order)`` (the compiled path, see the module docstring)."""
+    """What the finite-element layer needs from a material.
+
+    Optional, outside the protocol: ``evaluate_compiled(F, order)`` (the compiled path, see the
+    module docstring).
+    """
 
     @property
     def shear_modulus_ref(self) -> float:
         """Small-strain shear modulus about the reference configuration [MPa] (for scales)."""
 
     def energy(self, F: np.ndarray) -> np.ndarray:
-        """W(F) per reference volume [MPa]; +inf where inadmissible."""
+        """Stored energy per reference volume.
+
+        Parameters
+        ----------
+        F : ndarray, shape (..., d, d)
+            Deformation gradients [-].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            W(F) [MPa]; +inf where inadmissible.
+        """
 
     def evaluate(self, F: np.ndarray, tangent: bool = True) -> MaterialResponse:
-        """W, P and (optionally) dP/dF at every F."""
+        """Energy, stress and (optionally) tangent at every F.
+
+        Parameters
+        ----------
+        F : ndarray, shape (..., d, d)
+            Deformation gradients [-].
+        tangent : bool, optional
+            Whether to compute dP/dF too.
+
+        Returns
+        -------
+        MaterialResponse
+            W [MPa], P [MPa] and dP/dF [MPa] (None unless ``tangent``).
+        """
 
 
 class _Frozen(BaseModel):
@@ -120,14 +157,39 @@ class _InvariantMaterial:
         return F, d, c, Finv, I1, J, ok
 
     def energy(self, F: np.ndarray) -> np.ndarray:
-        """Stored energy per reference volume W [MPa]; +inf where inadmissible."""
+        """Stored energy per reference volume.
+
+        Parameters
+        ----------
+        F : ndarray, shape (..., d, d)
+            Deformation gradients [-] (d = 2: plane strain, or 3).
+
+        Returns
+        -------
+        ndarray, shape (...)
+            W [MPa]; +inf where inadmissible.
+        """
         F, _, _, _, I1, J, ok = self._invariants(F)
         Js = np.where(ok, J, 2.0)
         psi = self._psi(I1, Js, 0)[0]
         return np.where(ok, self._scale * psi - self._energy_offset, np.inf)
 
     def evaluate(self, F: np.ndarray, tangent: bool = True) -> MaterialResponse:
-        """W [MPa], P = dW/dF [MPa] and A = dP/dF [MPa] (A[..., i, J, k, L] = dP_iJ/dF_kL)."""
+        """Energy, first Piola-Kirchhoff stress and tangent at every F.
+
+        Parameters
+        ----------
+        F : ndarray, shape (..., d, d)
+            Deformation gradients [-] (d = 2: plane strain, or 3).
+        tangent : bool, optional
+            Whether to compute A = dP/dF too.
+
+        Returns
+        -------
+        MaterialResponse
+            W [MPa], P = dW/dF [MPa] and A = dP/dF [MPa] (``A[..., i, J, k, L] = dP_iJ/dF_kL``; None
+            unless ``tangent``); +inf energy and zero P, A where inadmissible.
+        """
         F, d, c, Finv, I1, J, ok = self._invariants(F)
         Js = np.where(ok, J, 2.0)
         psi, p1, pJ, p11, p1J, pJJ = self._psi(I1, Js, 2 if tangent else 1)
@@ -162,9 +224,28 @@ class _InvariantMaterial:
         raise NotImplementedError
 
     def evaluate_compiled(self, F: np.ndarray, order: int = 2) -> MaterialResponse:
-        """``evaluate`` by a compiled loop over the points: W [MPa] (order 0), with P [MPa] (order
-        1), with A [MPa] (order 2); P and A are None where not asked for. Same formulas as
-        ``evaluate``, so equal to it up to round-off; +inf / zeros at inadmissible states alike."""
+        """``evaluate`` by a compiled loop over the points.
+
+        Same formulas as ``evaluate``, so equal to it up to round-off; +inf / zeros at inadmissible
+        states alike.
+
+        Parameters
+        ----------
+        F : ndarray, shape (..., d, d)
+            Deformation gradients [-] (d = 2 or 3).
+        order : {0, 1, 2}, optional
+            0: W only; 1: with P; 2: with A.
+
+        Returns
+        -------
+        MaterialResponse
+            W [MPa], P [MPa] (order >= 1) and A [MPa] (order 2); P and A are None where not asked for.
+
+        Raises
+        ------
+        ValueError
+            If ``order`` is not 0, 1 or 2, or F is not a stack of 2x2 or 3x3 matrices.
+        """
         if order not in (0, 1, 2):
             raise ValueError(f"order must be 0, 1 or 2 (got {order})")
         F = np.asarray(F, dtype=float)
@@ -304,7 +385,20 @@ def _yeoh_psi(I1, J, coeffs, bulk, order):
 
 
 def bulk_modulus(shear_modulus: float, poisson_ratio: float) -> float:
-    """Small-strain bulk modulus K = 2G(1 + nu) / (3(1 - 2nu)) [MPa]."""
+    """Small-strain bulk modulus K = 2G(1 + nu) / (3(1 - 2nu)).
+
+    Parameters
+    ----------
+    shear_modulus : float
+        Small-strain shear modulus G [MPa].
+    poisson_ratio : float
+        Small-strain Poisson's ratio nu [-], below 0.5.
+
+    Returns
+    -------
+    float
+        K [MPa].
+    """
     return 2.0 * shear_modulus * (1.0 + poisson_ratio) / (3.0 * (1.0 - 2.0 * poisson_ratio))
 
 
@@ -312,6 +406,13 @@ class NeoHookean(_Frozen, _InvariantMaterial):
     """Compressible neo-Hookean solid (Abaqus form): W = G/2 (I1bar - 3) + K/2 (J - 1)^2.
 
     Defaults: Ecoflex 00-30, G = 0.023 MPa, Poisson's ratio 0.45 (K derived).
+
+    Parameters
+    ----------
+    shear_modulus : float, optional
+        Small-strain shear modulus G [MPa].
+    poisson_ratio : float, optional
+        Small-strain Poisson's ratio [-], in [0, 0.5).
     """
 
     shear_modulus: float = Field(0.023, gt=0, description="small-strain shear modulus G [MPa]")
@@ -339,6 +440,13 @@ class Yeoh(_Frozen, _InvariantMaterial):
     The initial shear modulus is 2 C10; K follows from it and the Poisson's ratio. Defaults
     reduce to the Ecoflex 00-30 neo-Hookean (C10 = G/2); give C20, C30 from a fit for
     large-strain stiffening.
+
+    Parameters
+    ----------
+    c10, c20, c30 : float, optional
+        Coefficients C10 (> 0), C20, C30 [MPa].
+    poisson_ratio : float, optional
+        Small-strain Poisson's ratio [-], in [0, 0.5).
     """
 
     c10: float = Field(0.0115, gt=0, description="C10 [MPa]")
@@ -390,7 +498,18 @@ class HydrogelParams(_Frozen):
     kT_over_nu: float = Field(KT_OVER_NU_MPA, gt=0, description="stress unit k_B T / nu [MPa]")
 
     def chi_coefficients(self, T: float) -> tuple[float, float]:
-        """(chi0, chi1) at temperature T [K], chi(T, J) = chi0 + chi1 / J."""
+        """Coefficients of chi(T, J) = chi0 + chi1 / J at one temperature.
+
+        Parameters
+        ----------
+        T : float
+            Temperature [K].
+
+        Returns
+        -------
+        chi0, chi1 : float
+            A0 + B0 T and A1 + B1 T [-].
+        """
         return self.A0 + self.B0 * T, self.A1 + self.B1 * T
 
     @property
@@ -413,14 +532,42 @@ def mixing_g(params: HydrogelParams, J, mu: float, T: float):
 
 
 def nominal_stresses(params: HydrogelParams, stretches, mu: float, T: float) -> np.ndarray:
-    """Principal nominal stresses s_i = n (l_i - 1/l_i) + (J/l_i) g(J) [k_B T / nu], dry reference."""
+    """Principal nominal stresses of the gel, s_i = n (l_i - 1/l_i) + (J/l_i) g(J), dry reference.
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel's constants.
+    stretches : array_like, shape (..., 3)
+        Principal stretches l_i relative to the dry network [-].
+    mu : float
+        Chemical potential of the solvent [k_B T].
+    T : float
+        Temperature [K].
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        s_i [k_B T / nu].
+    """
     lam = np.asarray(stretches, dtype=float)
     J = np.prod(lam, axis=-1, keepdims=True)
     return params.n * (lam - 1.0 / lam) + (J / lam) * mixing_g(params, J, mu, T)
 
 
 def reference_chemical_potential(params: HydrogelParams) -> float:
-    """mu0 [k_B T]: the chemical potential at which free swelling to lambda0 at T0 is stress-free."""
+    """The chemical potential mu0 at which free swelling to lambda0 at T0 is stress-free.
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel's constants (``lambda0``, ``T0``).
+
+    Returns
+    -------
+    float
+        mu0 [k_B T].
+    """
     lam = params.lambda0
     return float(nominal_stresses(params, [lam, lam, lam], 0.0, params.T0)[0] / lam**2)
 
@@ -496,7 +643,19 @@ class Hydrogel(_InvariantMaterial):
         self._energy_offset = float(self._scale * self._psi(3.0 * lam0**2, lam0**3, 0)[0])
 
     def at(self, mu: float, T: float) -> "Hydrogel":
-        """The same gel at another stimulus (mu [k_B T], T [K])."""
+        """The same gel at another stimulus.
+
+        Parameters
+        ----------
+        mu : float
+            Chemical potential of the solvent [k_B T].
+        T : float
+            Temperature [K].
+
+        Returns
+        -------
+        Hydrogel
+        """
         return Hydrogel(self.params, mu, T)
 
     def __repr__(self) -> str:
@@ -519,5 +678,16 @@ class Hydrogel(_InvariantMaterial):
                          self.params.n, chi0, chi1, self.mu])
 
     def swelling_ratio(self, F: np.ndarray) -> np.ndarray:
-        """Volume ratio to the dry network, J_dry = lambda0^3 det F [-]."""
+        """Volume ratio to the dry network, J_dry = lambda0^3 det F.
+
+        Parameters
+        ----------
+        F : ndarray, shape (..., d, d)
+            Deformation gradients from the as-prepared state [-].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            J_dry [-].
+        """
         return self.params.lambda0**3 * _det_inv(np.asarray(F, dtype=float))[0]

@@ -35,7 +35,20 @@ _EXPONENT = {"sphere": 2, "cylinder": 1}
 
 
 def time_constant(radius: float, diffusivity: float) -> float:
-    """Tanaka & Fillmore's time constant tau = a^2 / (pi^2 D) [s] of a sphere of radius a [mm]."""
+    """Tanaka & Fillmore's time constant tau = a^2 / (pi^2 D) of a sphere.
+
+    Parameters
+    ----------
+    radius : float
+        Radius a [mm].
+    diffusivity : float
+        Collective diffusion coefficient D [mm^2/s].
+
+    Returns
+    -------
+    float
+        tau [s].
+    """
     return radius**2 / (np.pi**2 * diffusivity)
 
 
@@ -79,13 +92,40 @@ def mean_log_swelling(
     initial: float | None = None,
     cells: int = 400,
 ) -> np.ndarray:
-    """Volume-averaged ln J of a particle at ``times`` [s] (strictly increasing).
+    """Volume-averaged ln J of a particle at a sequence of times.
 
-    ``surface``: ln J at the surface at each of ``times`` (the free-swelling equilibrium at the
-    stimulus of that time), changing linearly in between; ``initial``: the uniform ln J at
-    times[0] (default ``surface[0]``: in equilibrium; another value is a step at times[0]).
-    ``radius`` a [mm], ``diffusivity`` D [mm^2/s] > 0, ``shape`` "sphere" or "cylinder". Exact
-    in time for that surface history; second order in the shell width a / ``cells``.
+    Exact in time for the given surface history (linear between the times); second order in the
+    shell width a / ``cells``.
+
+    Parameters
+    ----------
+    times : array_like, shape (m,)
+        Strictly increasing times [s].
+    surface : array_like, shape (m,)
+        ln J at the surface at each time (the free-swelling equilibrium at the stimulus of that
+        time) [-], changing linearly in between.
+    radius : float
+        Particle radius a [mm], > 0.
+    diffusivity : float
+        Collective diffusion coefficient D [mm^2/s], > 0.
+    shape : {"sphere", "cylinder"}, optional
+        A sphere (3D) or a long cylinder (2D plane strain).
+    initial : float, optional
+        Uniform ln J at ``times[0]`` [-] (default ``surface[0]``: in equilibrium; another value is a
+        step at ``times[0]``).
+    cells : int, optional
+        Number of equal radial shells.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        The volume average <ln J> at each time [-] (J the volume ratio to the dry network).
+
+    Raises
+    ------
+    ValueError
+        If ``times`` is not strictly increasing, ``surface`` does not hold one finite value per
+        time, ``radius`` or ``diffusivity`` is not positive, or ``shape`` is unknown.
     """
     times = np.asarray(times, dtype=float)
     surface = np.asarray(surface, dtype=float)

@@ -23,10 +23,23 @@ def plot_swelling_curve(
     transition: Transition,
     path: str | os.PathLike,
 ) -> None:
-    """Free-swelling stretch (from the as-prepared state) against temperature [K] at one mu [k_B T].
+    """Plot the free-swelling stretch (from the as-prepared state) against temperature at one mu.
 
     A dense curve over the plotted range, the requested points as markers, the transition
     temperature marked, and the as-prepared state (stretch 1 at T0) for orientation.
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    mu : float
+        Chemical potential of the solvent [k_B T].
+    points : sequence of SwellingState
+        The requested states, plotted as markers.
+    transition : Transition
+        The volume phase transition at ``mu``.
+    path : str or os.PathLike
+        The PNG file to write (atomically).
     """
     Ts = np.array([p.T for p in points])
     lo, hi = min(Ts.min(), transition.T) - 2.0, max(Ts.max(), transition.T) + 2.0

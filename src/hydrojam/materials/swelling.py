@@ -30,7 +30,27 @@ _GRID = np.exp(np.linspace(np.log(1e-9), np.log(J_MAX), 4001))  # values of J - 
 
 @dataclass(frozen=True)
 class SwellingState:
-    """A stress-free (in its free directions) equilibrium of the gel at (mu, T)."""
+    """A stress-free (in its free directions) equilibrium of the gel at (mu, T).
+
+    Parameters
+    ----------
+    T : float
+        Temperature [K].
+    mu : float
+        Chemical potential of the solvent [k_B T].
+    stretch : float
+        Free stretch from the dry network [-].
+    stretch_rel : float
+        Free stretch from the as-prepared state [-].
+    J : float
+        Volume ratio to the dry network [-].
+    branch : {"swollen", "collapsed"}
+        The branch of the equilibrium.
+    energy : float
+        w per dry volume at equilibrium [k_B T / nu].
+    bistable : bool
+        Both branches are local minima at this (mu, T).
+    """
 
     T: float
     mu: float
@@ -44,7 +64,17 @@ class SwellingState:
 
 @dataclass(frozen=True)
 class Transition:
-    """Volume phase transition at fixed mu: T where the two branches have equal energy."""
+    """Volume phase transition at fixed mu: T where the two branches have equal energy.
+
+    Parameters
+    ----------
+    T : float
+        Transition temperature [K].
+    discontinuous : bool
+        Two coexisting minima (a volume jump) rather than a smooth crossover.
+    J_swollen, J_collapsed : float
+        Volume ratios to the dry network of the two branches at ``T`` [-].
+    """
 
     T: float  # transition temperature [K]
     discontinuous: bool  # two coexisting minima (a volume jump) rather than a smooth crossover
@@ -67,7 +97,7 @@ def _principal(held: tuple[float, ...], t) -> np.ndarray:
 
 
 def equilibrium_stretches(params: HydrogelParams, mu: float, T: float, held=()) -> np.ndarray:
-    """Every stable stationary free stretch of the gel at (mu [k_B T], T [K]), ascending [-, dry reference].
+    """Every stable stationary free stretch of the gel at (mu, T), ascending.
 
     ``held`` are principal stretches held fixed (dry reference); the 3 - len(held) others are free
     and equal, t: ``()`` free swelling, ``(lambda0,)`` plane strain (out-of-plane stretch held at
@@ -75,7 +105,28 @@ def equilibrium_stretches(params: HydrogelParams, mu: float, T: float, held=()) 
     the free directions' nominal stress zero where it rises through zero, i.e. t is a local
     minimum of the energy over the free stretch (two of them in the bistable window of the volume
     phase transition). Each sign change on a fine logarithmic grid of J - 1 (1e-9 to ``J_MAX``)
-    is refined by Brent's method to 1e-14. Raises ValueError where the gel swells without bound.
+    is refined by Brent's method to 1e-14.
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    mu : float
+        Chemical potential of the solvent [k_B T].
+    T : float
+        Temperature [K].
+    held : tuple of float, optional
+        Principal stretches held fixed, from the dry network [-] (none, one or two).
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        The free stretches t, from the dry network [-].
+
+    Raises
+    ------
+    ValueError
+        Where the gel swells without bound (mu > 0 for a free gel).
     """
     held = tuple(held)
     k = 3 - len(held)
@@ -186,6 +237,11 @@ def free_swelling(params: HydrogelParams, mu: float, T: float, T_c: float | None
         The free stretch from the dry network (``stretch``) and from the as-prepared state
         (``stretch_rel``), the volume ratio ``J``, the branch and its energy.
 
+    Raises
+    ------
+    ValueError
+        If ``mu > 0``: a free gel then swells without bound.
+
     Examples
     --------
     In pure water at 275 K the free gel swells 2.16x beyond its as-prepared size:
@@ -201,7 +257,24 @@ def free_swelling(params: HydrogelParams, mu: float, T: float, T_c: float | None
 
 
 def swelling_curve(params: HydrogelParams, mu: float, temperatures) -> tuple[Transition, list[SwellingState]]:
-    """Free-swelling states over a list of temperatures [K] at one mu [k_B T], and the transition."""
+    """Free-swelling states over a list of temperatures at one chemical potential, and the transition.
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    mu : float
+        Chemical potential of the solvent [k_B T].
+    temperatures : iterable of float
+        Temperatures [K].
+
+    Returns
+    -------
+    transition : Transition
+        The volume phase transition at ``mu``.
+    states : list of SwellingState
+        The stable free-swelling state at each temperature.
+    """
     tr = transition_temperature(params, mu)
     return tr, [_equilibrium(params, mu, float(T), (), tr.T) for T in temperatures]
 
@@ -228,6 +301,11 @@ def constrained_swelling(params: HydrogelParams, mu: float, T: float, held) -> S
     -------
     SwellingState
         ``stretch`` is the free stretch (from the dry network).
+
+    Raises
+    ------
+    ValueError
+        If ``held`` is not one or two positive stretches, or the gel swells without bound.
 
     Examples
     --------

@@ -228,7 +228,17 @@ DISAGREEMENT_REASONS_3D: dict[str, str] = {
 
 @dataclass(frozen=True)
 class ClaimResult:
-    """A claim checked: the summary with hydrojam's numbers and the verdict."""
+    """A claim checked: the summary with hydrojam's numbers and the verdict.
+
+    Parameters
+    ----------
+    claim : Claim
+        The claim.
+    summary : str
+        Each part's numbers and the rule it applied.
+    verdict : str
+        "agree", "disagree", "undetermined" or "undetermined (spread)".
+    """
 
     claim: Claim
     summary: str
@@ -236,12 +246,23 @@ class ClaimResult:
 
 
 def check_claims(table) -> list[ClaimResult]:
-    """Every claim of PAPER_CLAIMS checked on ``table`` (a SweepTable or a list of rows)."""
+    """Every claim of PAPER_CLAIMS checked on a table.
+
+    Parameters
+    ----------
+    table : SweepTable or list of dict
+        The study's results (or its rows).
+
+    Returns
+    -------
+    list of ClaimResult
+        In the order of PAPER_CLAIMS.
+    """
     return [check_claim(claim, table) for claim in PAPER_CLAIMS]
 
 
 def check_claim(claim: Claim, table) -> ClaimResult:
-    """One claim checked on its sweep's rows of ``table`` (a SweepTable or a list of rows).
+    """One claim checked on its sweep's rows of a table.
 
     Each trend is a part of the check on each quantity in turn ("larger_change": once, on the
     quantities together); a part is undetermined where its points are missing or unusable, and
@@ -249,9 +270,21 @@ def check_claim(claim: Claim, table) -> ClaimResult:
     verdict: "disagree" if any part disagrees, else "undetermined" if any part is (or there is
     none), else "undetermined (spread)" if any part is, else "agree"; "undetermined" whatever
     the parts say where a point of the sweep is not finished (a table written without running),
-    the summary then beginning with what they say. The summary gives each
-    part's numbers (mean ± standard deviation with replicas) and the rule it applied, the ranges
-    checked on other points than the paper's, and the points skipped (why).
+    the summary then beginning with what they say.
+
+    Parameters
+    ----------
+    claim : Claim
+        The claim.
+    table : SweepTable or list of dict
+        The study's results (or its rows).
+
+    Returns
+    -------
+    ClaimResult
+        The verdict, and a summary giving each part's numbers (mean ± standard deviation with
+        replicas) and the rule it applied, the ranges checked on other points than the paper's,
+        and the points skipped (why).
     """
     sweep = paper_sweep(claim.sweep)
     rows = rows_of(table, claim.sweep)

@@ -97,9 +97,24 @@ class Change:
 
 @dataclass(frozen=True)
 class PointComparison:
-    """One design in both models: its label, the rows of the 2D and the 3D table (None: not
-    run), the free-swelling stretches (cylinder, sphere) at its temperature, the change in words
-    (``change``, whole sentences) and its parts (``parts``: what shows, and the reason's key)."""
+    """One design in both models, 2D and 3D.
+
+    Parameters
+    ----------
+    label : str
+        The point's label.
+    temperature : float or None
+        Its temperature [K].
+    row_2d, row_3d : dict or None
+        Its rows of the 2D and the 3D table (None: not run).
+    stretches : tuple of float or None
+        The free-swelling stretches (cylinder, sphere) from the as-prepared state at its
+        temperature [-].
+    change : str
+        The change from 2D to 3D in words (whole sentences).
+    parts : tuple of Change, optional
+        Its parts: what shows, and the reason's key.
+    """
 
     label: str
     temperature: float | None
@@ -231,9 +246,22 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
 
 
 def compare_points(table_3d, table_2d, base: Design) -> list[PointComparison]:
-    """The designs of either table (each once: the base point is shared by the three sweeps), in
-    the sweeps' order and by parameter, with their 2D and 3D rows and the change in words.
-    ``base``: the study's base design (its gel and chemical potential set the swelling stretches)."""
+    """The designs of either table with their 2D and 3D rows and the change in words.
+
+    Each design appears once (the base point is shared by the three sweeps), in the sweeps' order
+    and by parameter.
+
+    Parameters
+    ----------
+    table_3d, table_2d : SweepTable or list of dict
+        The 3D and the 2D study's results.
+    base : Design
+        The study's base design (its gel and chemical potential set the swelling stretches).
+
+    Returns
+    -------
+    list of PointComparison
+    """
     rows = []
     for table in (table_2d, table_3d):
         by_point = {}

@@ -164,19 +164,34 @@ def _failure_text(row: dict, reason: str | None = None) -> str:
 
 def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: str | os.PathLike, *,
                 label: str | None = None, unit: str | None = None) -> None:
-    """The deformed actuators of one sweep side by side (the paper's Figs. 6, 8, 10).
+    """Draw the deformed actuators of one sweep side by side (the paper's Figs. 6, 8, 10).
 
-    One panel per point, sorted by ``param`` (a dotted design field, a column of ``rows``), all
-    at the same scale (shared limits, equal aspect): membrane light grey, strain-limit layer dark
-    grey, particles blue, read from ``OUT/<point_dir>/final.vtu``; the undeformed outer outline
-    dashed (from the point's design.toml); the title gives the parameter and the bending angle.
-    A finished point without final.vtu (a kept record put back) is drawn as its strain-limit
-    layer's mid-line, rebuilt from its centreline.csv (:func:`_centreline_drawing`), the line as made
-    dashed; a failed point (or one with neither file) gets an empty panel saying why. An unfinished one
-    (a table written without running) is drawn as it stands now, from its checkpoint (its title
-    in grey says so: not an equilibrium), or where it has none, gets a panel saying so. A 3D point is
-    drawn as its section y = 0 (the symmetry plane: half of every particle, the walls and the
-    strain-limit layer cut through the middle), seen along -y, as in its ``final.png``. Lengths in mm.
+    One panel per point, sorted by ``param``, all at the same scale (shared limits, equal aspect):
+    membrane light grey, strain-limit layer dark grey, particles blue, read from
+    ``OUT/<point_dir>/final.vtu``; the undeformed outer outline dashed (from the point's
+    design.toml); the title gives the parameter and the bending angle. A finished point without
+    final.vtu (a kept record put back) is drawn as its strain-limit layer's mid-line, rebuilt from
+    its centreline.csv (:func:`_centreline_drawing`), the line as made dashed; a failed point (or
+    one with neither file) gets an empty panel saying why. An unfinished one (a table written
+    without running) is drawn as it stands now, from its checkpoint (its title in grey says so:
+    not an equilibrium), or where it has none, gets a panel saying so. A 3D point is drawn as its
+    section y = 0 (the symmetry plane: half of every particle, the walls and the strain-limit
+    layer cut through the middle), seen along -y, as in its ``final.png``. Lengths in mm.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The study's output folder OUT.
+    rows : sequence of dict
+        The sweep's rows of the results table.
+    param : str
+        The dotted design field varied (a column of ``rows``).
+    path : str or os.PathLike
+        The PNG file to write (atomically).
+    label : str, optional
+        The parameter's axis label without unit.
+    unit : str, optional
+        The parameter's unit.
     """
     from matplotlib.collections import LineCollection, PolyCollection
     from matplotlib.lines import Line2D
@@ -294,12 +309,30 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
 
 def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label: str, unit: str, *,
                 curling: bool | None = None) -> None:
-    """Bending angle and free-end displacement magnitudes |δx|, |δz| against the parameter (the
-    paper's Figs. 7, 9, 11), and with ``curling`` (default: for ``particle_layers``) the curling
-    index. Markers and lines; a non-converged point is drawn hollow, a failed one (or one not
-    finished, in a table written without running) is left out and named under the figure. Rows of replicated points (``<metric>_std``, ``_min``, ``_max``
-    columns) are drawn at their mean with error bars of ± one standard deviation and a band over
-    the replicas' range (of magnitudes, for |δx| and |δz|)."""
+    """Plot the bending angle and free-end displacement magnitudes |δx|, |δz| against the parameter
+    (the paper's Figs. 7, 9, 11), and optionally the curling index.
+
+    Markers and lines; a non-converged point is drawn hollow, a failed one (or one not finished,
+    in a table written without running) is left out and named under the figure. Rows of
+    replicated points (``<metric>_std``, ``_min``, ``_max`` columns) are drawn at their mean with
+    error bars of ± one standard deviation and a band over the replicas' range (of magnitudes, for
+    |δx| and |δz|).
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        The sweep's rows of the results table: angles [deg], displacements [mm].
+    param : str
+        The dotted design field varied (a column of ``rows``).
+    path : str or os.PathLike
+        The PNG file to write (atomically).
+    label : str
+        The parameter's axis label without unit.
+    unit : str
+        The parameter's unit.
+    curling : bool, optional
+        Also the curling index [-] (default: for ``particle_layers``).
+    """
     from matplotlib.lines import Line2D
 
     rows = sorted_by(rows, param)
@@ -378,8 +411,23 @@ def figure_names(sweep: PaperSweep) -> tuple[str, str]:
 
 
 def write_figures(out: str | os.PathLike, table) -> list[Path]:
-    """Both figures of every sweep into ``OUT/figures/`` (``<sweep>_shapes.png``,
-    ``<sweep>_trends.png``); a sweep without rows is skipped. Returns the paths written."""
+    """Write both figures of every sweep into ``OUT/figures/``.
+
+    The figures are ``<sweep>_shapes.png`` (:func:`plot_shapes`) and ``<sweep>_trends.png``
+    (:func:`plot_trends`); a sweep without rows is skipped.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The study's output folder OUT.
+    table : SweepTable or list of dict
+        The study's results.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     out = Path(out)
     written = []
     for sw in PAPER_SWEEPS:

@@ -158,16 +158,44 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     What was run (quick or full, mesh size, points, workers, wall time, hydrojam version); per
     sweep its figures (``figures/<sweep>_shapes.png``, ``_trends.png``, when written) and a table
     of the points; the claims of PAPER_CLAIMS with hydrojam's numbers and verdicts, the "why" of a
-    disagreement from ``explanations`` (claim id -> text) or the claim's ``reason``; the tolerances
-    and the model differences. ``base``: the study's base design (default :func:`paper_base`);
-    its dimension makes it the 2D or the 3D study's report. A 3D report adds the section "2D
-    against 3D" (:func:`hydrojam.paper.compare.comparison_lines`) with ``compare_2d``, the 2D
-    study's table of the same kind read from folder ``compare_source``, or says how to get it.
-    ``computed``: how many distinct points this run computed (finished or went on from a
-    checkpoint) rather than reused from an earlier run into the same folder. ``ran=False``: the
-    report of a study in progress, written from its finished points without running anything
-    (``reproduce(report_only=True)``): its unfinished points are listed as such and the report
-    says that it is an interim one.
+    disagreement; the tolerances and the model differences. A 3D report adds the section "2D
+    against 3D" (:func:`hydrojam.paper.compare.comparison_lines`), or says how to get it.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The study's output folder OUT.
+    table : SweepTable or list of dict
+        The study's results.
+    quick : bool
+        Whether it is the quick study.
+    wall_time_s : float or None
+        The run's wall time [s].
+    explanations : dict of str to str, optional
+        Claim id -> the "why" of a disagreement (default: the claim's ``reason``).
+    workers : int, optional
+        The local workers used, for the report.
+    scheduler : str, optional
+        The dask scheduler's address used, for the report.
+    base : Design, optional
+        The study's base design (default :func:`paper_base`); its dimension makes it the 2D or the
+        3D study's report.
+    compare_2d : SweepTable, optional
+        The 2D study's table of the same kind, for a 3D report.
+    compare_source : str or os.PathLike, optional
+        The folder ``compare_2d`` was read from.
+    computed : int, optional
+        How many distinct points this run computed (finished or went on from a checkpoint) rather
+        than reused from an earlier run into the same folder.
+    ran : bool, optional
+        False: the report of a study in progress, written from its finished points without running
+        anything (``reproduce(report_only=True)``): its unfinished points are listed as such and
+        the report says that it is an interim one.
+
+    Returns
+    -------
+    Path
+        ``OUT/report.md``.
     """
     out = Path(out)
     base = base if base is not None else paper_base(quick)

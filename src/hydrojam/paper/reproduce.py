@@ -31,20 +31,50 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
               replicas: int = 1, dimension: int = 2,
               compare_2d: str | os.PathLike | None = None, on_running=None,
               report_only: bool = False) -> tuple[SweepTable, Path]:
-    """Run the Section IV study into ``out`` (:func:`hydrojam.study.sweep.run_sweep` with
-    ``workers``, ``scheduler``, ``on_point`` and ``on_running``; quick: a subset on a 4 mm mesh; ``sweeps``: only
-    those named, the others can be added by a later call into the same folder; ``replicas`` per
-    point: the table, figures and verdicts then use their mean and spread), write the
-    figures into ``OUT/figures/`` and ``OUT/report.md``; returns (SweepTable, report path).
-    The report's wall time [s] is this call's, with how many points it computed (the others
-    reused). ``dimension`` 2 or 3 (ValueError otherwise, and
-    StudyError, nothing run, for an OUT holding the other dimension's or kind's study);
-    ``compare_2d``: with dimension 3, a folder holding the 2D study of the same kind, read
-    before anything runs (:func:`hydrojam.paper.compare.read_2d_results`; CompareError, a
-    ValueError, when unusable; ValueError with dimension 2), for the report's 2D-against-3D table.
-    ``report_only``: run nothing; the table, figures and report of the points finished in ``out``
-    so far, the others shown as not finished (``run_sweep(run=False)``: StudyError where ``out``
-    holds no study yet)."""
+    """Run the Section IV study into ``out``, write its figures and report.
+
+    The study runs with :func:`hydrojam.study.sweep.run_sweep`; the figures go into
+    ``OUT/figures/`` and the report to ``OUT/report.md``. The report's wall time [s] is this
+    call's, with how many points it computed (the others reused).
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The output folder OUT.
+    quick : bool, optional
+        A subset of the points on a 4 mm mesh.
+    workers, scheduler, on_point, on_running
+        As for :func:`hydrojam.study.sweep.run_sweep`.
+    sweeps : sequence of str, optional
+        Only the sweeps named; the others can be added by a later call into the same folder.
+    replicas : int, optional
+        Runs per point: the table, figures and verdicts then use their mean and spread.
+    dimension : {2, 3}, optional
+        Plane strain or 3D (spheres, the half model).
+    compare_2d : str or os.PathLike, optional
+        With dimension 3, a folder holding the 2D study of the same kind, read before anything runs
+        (:func:`hydrojam.paper.compare.read_2d_results`), for the report's 2D-against-3D table.
+    report_only : bool, optional
+        Run nothing: the table, figures and report of the points finished in ``out`` so far, the
+        others shown as not finished (``run_sweep(run=False)``).
+
+    Returns
+    -------
+    table : SweepTable
+        The study's results.
+    report : Path
+        The report written.
+
+    Raises
+    ------
+    ValueError
+        For a dimension other than 2 or 3, an unknown sweep, or ``compare_2d`` with dimension 2.
+    CompareError
+        (a ValueError) When ``compare_2d`` is unusable.
+    StudyError
+        Nothing run, for an OUT holding the other dimension's or kind's study, or with
+        ``report_only`` where ``out`` holds no study yet.
+    """
     out = Path(out)
     t0 = time.perf_counter()
     study = paper_study(quick, sweeps, replicas, dimension)

@@ -54,7 +54,27 @@ QUICK_STRAIN_LIMIT_THICKNESSES_MM = [4.0, 8.0, 12.0]
 
 @dataclass(frozen=True)
 class PaperSweep:
-    """One sweep of the paper's Section IV: the varied design field and how to label it."""
+    """One sweep of the paper's Section IV: the varied design field and how to label it.
+
+    Parameters
+    ----------
+    name : str
+        Sweep name, also the figures' file stem.
+    field : str
+        Dotted design field varied.
+    symbol : str
+        The paper's symbol.
+    label : str
+        Axis label without unit.
+    unit : str
+        The field's unit (K, layers, mm).
+    figures : str
+        The paper's figures.
+    values, quick_values : tuple
+        The paper's values and the quick subset [``unit``].
+    points_noun : str
+        The swept values in words, plural ("temperatures").
+    """
 
     name: str  # sweep name, also the figures' file stem
     field: str  # dotted design field varied
@@ -98,9 +118,27 @@ def _check_dimension(dimension) -> int:
 
 
 def study_name(quick: bool = False, dimension: int = 2) -> str:
-    """The study's name, also the one ``OUT/study.toml`` records: "paper", "paper-quick" (2D),
-    "paper-3d", "paper-3d-quick" (3D). Two kinds never share an output folder (the sweep refuses
-    an OUT holding another name)."""
+    """The paper study's name, also the one ``OUT/study.toml`` records.
+
+    Two kinds never share an output folder (the sweep refuses an OUT holding another name).
+
+    Parameters
+    ----------
+    quick : bool, optional
+        The quick subset.
+    dimension : {2, 3}, optional
+        The study's dimension.
+
+    Returns
+    -------
+    str
+        "paper", "paper-quick" (2D), "paper-3d" or "paper-3d-quick" (3D).
+
+    Raises
+    ------
+    ValueError
+        For another dimension.
+    """
     return "paper" + ("-3d" if _check_dimension(dimension) == 3 else "") + ("-quick" if quick else "")
 
 
@@ -121,9 +159,26 @@ def study_kind(name: str) -> tuple[bool, int] | None:
 
 
 def paper_base(quick: bool = False, replicas: int = 1, dimension: int = 2) -> Design:
-    """The base design of every sweep: the default (PL 5, h 8 mm, 275 K, 2D); quick: mesh
-    size QUICK_MESH_SIZE [mm]; ``replicas`` per point (replicas.count); ``dimension`` 3: the same
-    design with spheres (the half model, the design's default), ValueError for another dimension."""
+    """The base design of every sweep: the default (PL 5, h 8 mm, 275 K, 2D).
+
+    Parameters
+    ----------
+    quick : bool, optional
+        Mesh size QUICK_MESH_SIZE [mm].
+    replicas : int, optional
+        Replicas per point (``replicas.count``).
+    dimension : {2, 3}, optional
+        3: the same design with spheres (the half model, the design's default).
+
+    Returns
+    -------
+    Design
+
+    Raises
+    ------
+    ValueError
+        For another dimension.
+    """
     base = default_design()
     if _check_dimension(dimension) == 3:
         base = apply_overrides(base, ["dimension=3"])
@@ -140,13 +195,33 @@ def paper_points(quick: bool = False) -> dict[str, dict[str, list]]:
 
 def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None, replicas: int = 1,
                 dimension: int = 2) -> Study:
-    """The Section IV study as a :class:`hydrojam.study.spec.Study` named :func:`study_name`
-    ("paper", "paper-quick"; in 3D "paper-3d", "paper-3d-quick"): sweeps "temperature",
-    "particle_layers", "strain_limit_thickness" round :func:`paper_base` (``sweeps``: only those
-    named, in the paper's order; ValueError naming the allowed ones for an unknown name, or the
-    allowed dimensions), ``replicas`` runs per point (replica 0 of each is the single run's point,
-    so a study with more replicas reuses a finished single-run study in the same folder). The
-    base point (275 K, PL 5, h 8 mm) lies in all three. The 3D study has the 2D one's points."""
+    """The Section IV study as a :class:`hydrojam.study.spec.Study` named :func:`study_name`.
+
+    Sweeps "temperature", "particle_layers", "strain_limit_thickness" round :func:`paper_base`.
+    Replica 0 of each point is the single run's point, so a study with more replicas reuses a
+    finished single-run study in the same folder. The base point (275 K, PL 5, h 8 mm) lies in all
+    three. The 3D study has the 2D one's points.
+
+    Parameters
+    ----------
+    quick : bool, optional
+        A subset of the points on the quick mesh.
+    sweeps : sequence of str, optional
+        Only the sweeps named, in the paper's order (default: all three).
+    replicas : int, optional
+        Runs per point.
+    dimension : {2, 3}, optional
+        The study's dimension.
+
+    Returns
+    -------
+    Study
+
+    Raises
+    ------
+    ValueError
+        Naming the allowed ones, for an unknown sweep name or dimension.
+    """
     name = study_name(quick, dimension)
     points = paper_points(quick)
     unknown = [s for s in (sweeps or ()) if s not in points]

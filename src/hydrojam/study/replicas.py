@@ -47,8 +47,19 @@ SUMMARY_METRICS: tuple[str, ...] = (*(m.name for m in STATE_METRICS), "s_reached
 
 
 def replica_study(design: Design, count: int | None = None) -> Study:
-    """The study "replicas": one point, the design with ``count`` replicas (default its own
-    ``replicas.count``)."""
+    """The study "replicas": one point, the design with ``count`` replicas.
+
+    Parameters
+    ----------
+    design : Design
+        The design.
+    count : int, optional
+        Number of replicas (default: the design's own ``replicas.count``).
+
+    Returns
+    -------
+    Study
+    """
     design = design if count is None else with_replicas(design, count)
     n = design.replicas.count
     return Study(name=REPLICA_STUDY, base=design, sweeps=[SweepSpec(name=REPLICA_STUDY, vary={"replicas.count": [n]})])
@@ -58,10 +69,18 @@ def replica_study(design: Design, count: int | None = None) -> Study:
 class ReplicaSummary:
     """The replicas of a design and the spread of every metric over those that reached the target.
 
-    ``runs``: one row per replica (:func:`hydrojam.study.sweep.replica_table`: replica, key,
-    metrics, status, error, point_dir); ``stats``: metric name -> :class:`~hydrojam.study.spread.Spread`
-    over the replicas with status ok (values by replica, None for the others); ``wall_time_s``:
-    the whole call's wall time (the replicas ran in parallel), None when not measured.
+    Parameters
+    ----------
+    design : Design
+        The design the replicas are of.
+    runs : list of dict
+        One row per replica (:func:`hydrojam.study.sweep.replica_table`: replica, key, metrics,
+        status, error, point_dir).
+    stats : dict of str to Spread
+        Metric name -> :class:`~hydrojam.study.spread.Spread` over the replicas with status ok
+        (values by replica, None for the others), in the metric's unit.
+    wall_time_s : float or None
+        The whole call's wall time [s] (the replicas ran in parallel), None when not measured.
     """
 
     design: Design
@@ -114,8 +133,21 @@ class ReplicaSummary:
 
 
 def summarise(design: Design, runs: list[dict], wall_time_s: float | None = None) -> ReplicaSummary:
-    """The summary of ``runs`` (rows of :func:`~hydrojam.study.sweep.replica_table`, in replica
-    order): every :data:`SUMMARY_METRICS` over the runs with status ok."""
+    """The summary of replica runs: every :data:`SUMMARY_METRICS` over the runs with status ok.
+
+    Parameters
+    ----------
+    design : Design
+        The design the replicas are of.
+    runs : list of dict
+        Rows of :func:`~hydrojam.study.sweep.replica_table`, in replica order.
+    wall_time_s : float, optional
+        The whole call's wall time [s], None when not measured.
+
+    Returns
+    -------
+    ReplicaSummary
+    """
     stats = {name: spread([r.get(name) if r.get("status") == "ok" else None for r in runs])
              for name in SUMMARY_METRICS}
     return ReplicaSummary(design, runs, stats, wall_time_s)
@@ -126,11 +158,40 @@ def run_replicas(design: Design, out: str | os.PathLike, *, count: int | None = 
                  on_point: Callable[[PointOutcome, int, int], None] | None = None,
                  point_fn: Callable[[Design, Path], dict] = run_point,
                  on_running=None) -> tuple[SweepTable, ReplicaSummary]:
-    """Run replicas 0 .. N-1 of ``design`` (N = ``count``, default ``design.replicas.count``) into
-    ``OUT`` as :func:`hydrojam.study.sweep.run_sweep` runs a study (``workers``, ``scheduler``,
-    ``on_point``, ``point_fn``, ``on_running`` as there; finished replicas in OUT are loaded, not run), write the
-    summary (module docstring) and return (the one-row table, the summary). Raises what
-    run_sweep raises for bad arguments, DesignError for a bad count; nothing written then."""
+    """Run replicas 0 .. N-1 of a design into ``OUT`` as :func:`hydrojam.study.sweep.run_sweep` runs a
+    study, write the summary (module docstring) and return it.
+
+    Finished replicas in OUT are loaded, not run.
+
+    Parameters
+    ----------
+    design : Design
+        The design.
+    out : str or os.PathLike
+        The output folder OUT.
+    count : int, optional
+        N (default ``design.replicas.count``).
+    workers, scheduler, on_point, point_fn, on_running
+        As for :func:`hydrojam.study.sweep.run_sweep`.
+
+    Returns
+    -------
+    table : SweepTable
+        The one-row table (means and spreads).
+    summary : ReplicaSummary
+        The spread of every metric over the replicas with status ok.
+
+    Raises
+    ------
+    DesignError
+        For a bad ``count``.
+    StudyError, ValueError, SchedulerError
+        As :func:`~hydrojam.study.sweep.run_sweep` raises them for bad arguments.
+
+    Notes
+    -----
+    Nothing is written when it raises for a bad argument.
+    """
     t0 = time.perf_counter()
     study = replica_study(design, count)
     table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point, point_fn=point_fn,

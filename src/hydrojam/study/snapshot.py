@@ -25,10 +25,23 @@ __all__ = ["Snapshot", "write_snapshots"]
 
 @dataclass(frozen=True)
 class Snapshot:
-    """One unfinished run drawn: ``name`` (its design key, or the run folder's name), the study
-    points sharing it, its load parameter ``s`` [-], whether it is in its release at s = 1
-    (``releasing``), the state's metrics (:func:`hydrojam.actuator.model.measure`) and the
-    files written."""
+    """One unfinished run drawn.
+
+    Parameters
+    ----------
+    name : str
+        Its design key, or the run folder's name.
+    points : tuple of Point
+        The study points sharing it.
+    s : float
+        Its load parameter [-].
+    releasing : bool
+        Whether it is in its release at s = 1.
+    metrics : dict
+        The state's metrics (:func:`hydrojam.actuator.model.measure`).
+    vtu, png : Path
+        The files written.
+    """
 
     name: str
     points: tuple[Point, ...]
@@ -40,10 +53,28 @@ class Snapshot:
 
 
 def write_snapshots(out: str | os.PathLike, dest: str | os.PathLike, on_run=None) -> list[Snapshot]:
-    """Draw every unfinished (or failed, with a checkpoint to go on from) run of the output folder
-    ``out`` (a study's or a run's; StatusError for another) into ``dest`` (made where there is
-    something to draw): ``<name>.vtu`` and ``<name>.png``. ``on_run(name, points)`` is called
-    before each (its model takes seconds to a minute to build). Returns what was written, in the study's order."""
+    """Draw every unfinished (or failed, with a checkpoint to go on from) run of an output folder.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The output folder, a study's or a run's.
+    dest : str or os.PathLike
+        Where to write ``<name>.vtu`` and ``<name>.png`` (made where there is something to draw).
+    on_run : callable, optional
+        ``on_run(name, points)``, called before each (its model takes seconds to a minute to
+        build).
+
+    Returns
+    -------
+    list of Snapshot
+        What was written, in the study's order.
+
+    Raises
+    ------
+    StatusError
+        For a folder that is neither a study's nor a run's.
+    """
     from hydrojam.actuator.plots import plot_actuator
     from hydrojam.actuator.results import write_vtu
 

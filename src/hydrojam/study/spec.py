@@ -72,12 +72,23 @@ class StudyError(DesignError):
 
 
 def design_key(design: Design) -> str:
-    """16 hex digits of SHA-256 over the resolved design (canonical JSON) and :data:`CACHE_FORMAT`.
+    """The cache key of a design: 16 hex digits of SHA-256 over the resolved design (canonical JSON)
+    and :data:`CACHE_FORMAT`.
 
     Equal designs written differently (a derived cavity size left out or written out) share a key.
     Of the ``replicas`` table only what changes the run counts: nothing for replica 0 (the design
     as drawn, the key it had before replicas existed), seed, jitter and index for another; of
     ``mesh.symmetry`` nothing in 2D; of ``friction_slip`` nothing when omitted.
+
+    Parameters
+    ----------
+    design : Design
+        The design.
+
+    Returns
+    -------
+    str
+        The key, 16 hexadecimal digits.
     """
     dumped = design.resolved().model_dump(mode="json")
     replicas = dumped.pop("replicas")
@@ -151,8 +162,25 @@ class SweepSpec(BaseModel):
 
 @dataclass(frozen=True)
 class Point:
-    """One run of a study: its sweep, index within the sweep, varied values, design and cache key,
-    and which of the point's ``replicas`` it is (``design`` is that replica's, a single run)."""
+    """One run of a study.
+
+    Parameters
+    ----------
+    sweep : str
+        The sweep's name.
+    index : int
+        Index of the point within the sweep.
+    values : dict
+        Dotted design field -> the value varied at this point.
+    design : Design
+        The design of this run (this replica's, a single run).
+    key : str
+        The cache key (:func:`design_key`).
+    replica : int, optional
+        Which of the point's replicas this run is.
+    replicas : int, optional
+        How many replicas the point has.
+    """
 
     sweep: str
     index: int
@@ -272,8 +300,24 @@ def _sweep_from_dict(raw: Any, i: int) -> SweepSpec:
 
 
 def study_from_dict(data: dict, root: str | os.PathLike | None = None) -> Study:
-    """A validated Study from parsed TOML (see the module docstring); ``base`` is read relative to
-    ``root`` (default: the current folder). Raises StudyError (one line)."""
+    """A validated Study from parsed TOML (see the module docstring).
+
+    Parameters
+    ----------
+    data : dict
+        The parsed study file.
+    root : str or os.PathLike, optional
+        The folder ``base`` is read relative to (default: the current folder).
+
+    Returns
+    -------
+    Study
+
+    Raises
+    ------
+    StudyError
+        For an invalid study (one line naming the key).
+    """
     if not isinstance(data, dict):
         raise StudyError(f"study: expected a table of keys, got {type(data).__name__}")
     for key in data:
@@ -315,7 +359,22 @@ def study_from_dict(data: dict, root: str | os.PathLike | None = None) -> Study:
 
 
 def load_study(path: str | os.PathLike) -> Study:
-    """Read a study TOML file; raises StudyError naming the file for a missing or invalid one."""
+    """Read a study TOML file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The study file; its ``base`` is read relative to its folder.
+
+    Returns
+    -------
+    Study
+
+    Raises
+    ------
+    StudyError
+        Naming the file, for a missing or invalid one.
+    """
     path = Path(path)
     data = read_toml(path, "study", StudyError)
     try:
@@ -338,6 +397,15 @@ def study_to_toml(study: Study) -> str:
     sizes left out, so they follow a varied particle count) and the sweeps.
 
     Round-trips: ``study_from_dict(tomllib.loads(study_to_toml(s))) == s``.
+
+    Parameters
+    ----------
+    study : Study
+
+    Returns
+    -------
+    str
+        The TOML text.
     """
     text = tomli_w.dumps({"name": study.name, "design": study.base.model_dump(exclude_none=True)})
     for sweep in study.sweeps:
@@ -349,5 +417,12 @@ def study_to_toml(study: Study) -> str:
 
 
 def write_study(path: str | os.PathLike, study: Study) -> None:
-    """Write the study as TOML to ``path`` atomically."""
+    """Write the study as TOML (:func:`study_to_toml`) atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write.
+    study : Study
+    """
     write_text_atomic(path, study_to_toml(study))

@@ -15,12 +15,25 @@ __all__ = ["Spread", "spread"]
 
 @dataclass(frozen=True)
 class Spread:
-    """Statistics of ``values`` (one per replica, in replica order; None where undefined).
+    """Statistics of one quantity over a design's replicas.
 
-    ``n``: the defined values; ``mean``; ``std``: the sample standard deviation (n - 1 in the
-    denominator: the spread of the population of fillings the replicas sample), None for fewer
-    than 2 values; ``min`` / ``max`` and ``argmin`` / ``argmax``, the replica (position in
-    ``values``) that gave them, the first on ties. All None when no value is defined.
+    All statistics are None when no value is defined.
+
+    Parameters
+    ----------
+    values : tuple of float or None
+        One value per replica, in replica order; None where undefined.
+    n : int
+        Number of defined values.
+    mean : float or None
+        Their mean (in the quantity's unit).
+    std : float or None
+        The sample standard deviation (n - 1 in the denominator: the spread of the population of
+        fillings the replicas sample); None for fewer than 2 values.
+    min, max : float or None
+        The extremes.
+    argmin, argmax : int or None
+        The replica (position in ``values``) that gave them, the first on ties.
     """
 
     values: tuple[float | None, ...]
@@ -39,8 +52,19 @@ class Spread:
 
 
 def spread(values: Sequence) -> Spread:
-    """The :class:`Spread` of ``values`` (numbers or None, one per replica; NaN, inf and
-    non-numbers count as None). A single value is its own mean, with no standard deviation."""
+    """The :class:`Spread` of one value per replica.
+
+    A single value is its own mean, with no standard deviation.
+
+    Parameters
+    ----------
+    values : sequence
+        Numbers or None, one per replica; NaN, inf and non-numbers count as None.
+
+    Returns
+    -------
+    Spread
+    """
     vals = tuple(finite_number(v) for v in values)
     defined = [(i, v) for i, v in enumerate(vals) if v is not None]
     n = len(defined)

@@ -31,19 +31,36 @@ class StatusError(ValueError):
 
 @dataclass(frozen=True)
 class RunStatus:
-    """One distinct design of a study (``points``: the study points sharing it; empty for a
-    single run, and for a point folder of the study's output folder that its study.toml does not
-    name: one of sweeps run earlier into the same folder), or the run of a run folder.
+    """One distinct design of a study, or the run of a run folder.
 
-    ``state``: ``ok`` / ``not_converged`` (finished: point.json or metrics.json), ``failed``
-    (point.json; a stopped run keeps its checkpoint and goes on from it), ``unfinished`` (a
-    checkpoint or history.csv and no outcome: stopped, or running in another process) or
-    ``not started``. ``s`` [-], ``bending_angle_deg`` [deg] and ``wall_time_s`` [s]: the
-    outcome's where finished, else the last accepted state's (at s = 1 the stabilised state's,
-    the wall time then counting the release's rounds so far); ``release``: how far the release
-    at s = 1 has gone (unfinished runs only); ``updated``: when its folder was last written [s
-    since the epoch]; ``error``: a failed run's reason; ``release_metrics``: the state metrics of
-    the release's current centre (with ``measure``, :func:`folder_status`), else None."""
+    Parameters
+    ----------
+    key : str
+        The design key (empty for a run folder).
+    points : tuple of Point
+        The study points sharing it; empty for a single run, and for a point folder of the study's
+        output folder that its study.toml does not name (one of sweeps run earlier into the same
+        folder).
+    state : str
+        ``ok`` / ``not_converged`` (finished: point.json or metrics.json), ``failed`` (point.json;
+        a stopped run keeps its checkpoint and goes on from it), ``unfinished`` (a checkpoint or
+        history.csv and no outcome: stopped, or running in another process) or ``not started``.
+    s : float, optional
+        Load parameter [-]: the outcome's where finished, else the last accepted state's.
+    bending_angle_deg : float, optional
+        Bending angle [deg], likewise (at s = 1 the stabilised state's).
+    wall_time_s : float, optional
+        Wall time [s], likewise (at s = 1 counting the release's rounds so far).
+    release : ReleaseProgress, optional
+        How far the release at s = 1 has gone (unfinished runs only).
+    updated : float, optional
+        When its folder was last written [s since the epoch].
+    error : str, optional
+        A failed run's reason.
+    release_metrics : dict, optional
+        The state metrics of the release's current centre (with ``measure``,
+        :func:`folder_status`), else None.
+    """
 
     key: str
     points: tuple[Point, ...]
@@ -59,10 +76,22 @@ class RunStatus:
 
 @dataclass(frozen=True)
 class FolderStatus:
-    """``kind``: "study" or "run"; ``name``: the study's name, or the run folder's; ``runs``: in
-    the study's order; ``lock``: the folder's lock file as written by the run that holds it
-    (pid, host, started; :data:`hydrojam._io.FOLDER_LOCK`), None when no run holds it;
-    ``replicas``: the study's replicas per point (1 for a run)."""
+    """Where an output folder stands: its kind, name, runs and lock.
+
+    Parameters
+    ----------
+    kind : {"study", "run"}
+        A study's output folder or a single run's.
+    name : str
+        The study's name, or the run folder's.
+    runs : tuple of RunStatus
+        In the study's order.
+    lock : dict, optional
+        The folder's lock file as written by the run that holds it (pid, host, started;
+        :data:`hydrojam._io.FOLDER_LOCK`), None when no run holds it.
+    replicas : int, optional
+        The study's replicas per point (1 for a run).
+    """
 
     kind: str
     name: str
@@ -156,10 +185,27 @@ def _run_outcome(folder: Path) -> dict | None:
 
 
 def folder_status(out: str | os.PathLike, measure: bool = False) -> FolderStatus:
-    """Where the output folder ``out`` stands: a study's (``OUT/study.toml``, its points in
-    ``OUT/points/<key>/``) or a run's (``OUT/design.toml`` with history.csv, checkpoint.npz or
-    metrics.json). ``measure``: also the metrics of every unfinished release's current centre
-    (:func:`release_metrics`). Raises :class:`StatusError` for any other folder."""
+    """Where the output folder ``out`` stands.
+
+    A study's folder holds ``OUT/study.toml`` and its points in ``OUT/points/<key>/``; a run's
+    holds ``OUT/design.toml`` with history.csv, checkpoint.npz or metrics.json.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The output folder.
+    measure : bool, optional
+        Also the metrics of every unfinished release's current centre (:func:`release_metrics`).
+
+    Returns
+    -------
+    FolderStatus
+
+    Raises
+    ------
+    StatusError
+        For any other folder, or an unreadable study.toml.
+    """
     st = _folder_status(Path(out))
     if not measure:
         return st

@@ -413,7 +413,19 @@ def replica_table(study: Study, records: dict[str, dict]) -> SweepTable:
 
 @dataclass(frozen=True)
 class PointOutcome:
-    """The outcome of one distinct design: its record (point.json) and the study points sharing it."""
+    """The outcome of one distinct design: its record (point.json) and the study points sharing it.
+
+    Parameters
+    ----------
+    record : dict
+        The point's record (point.json): key, status, error, metrics, wall time [s].
+    cached : bool
+        Whether it was loaded from ``OUT`` rather than run.
+    points : tuple of Point
+        The study points sharing this design.
+    point_dir : Path
+        The point's folder.
+    """
 
     record: dict
     cached: bool
@@ -571,31 +583,61 @@ def run_sweep(
     """Run every distinct design of ``study`` into ``OUT/points/<key>/`` and write the table.
 
     Finished points (point.json ok or not_converged) are loaded, not run; the others run on a
-    dask cluster: the one at ``scheduler`` (an address), else a local one with ``workers``
-    single-threaded processes (default: one per CPU, at most one per point to run). The most
-    expensive points start first. ``on_point(outcome, done, total)`` is called for every distinct
-    design, the cached ones first, then each as it finishes. ``point_fn(design, point_dir) ->
-    metrics`` is what a point runs (default :func:`run_point`); its exceptions are recorded as
-    failed points. ``on_running(points, done, total)`` is called every ``progress_interval_s`` seconds (default
-    :data:`PROGRESS_INTERVAL_S`) while
-    points run, from another thread, with the points started by this call that have an accepted
-    state and no result yet (:class:`RunningPoint`; read from their history.csv, so only where
-    the workers share OUT's file system). On KeyboardInterrupt the futures are cancelled, the cluster closed, and the
-    interrupt re-raised: finished points are on disk. Returns the table, also written to
-    ``OUT/results.csv`` and ``OUT/results.parquet``.
-
-    ``run=False`` runs nothing: the table of the points finished so far, a point failed earlier
-    as failed, every other one with status ``unfinished`` and where it stands as its error
-    (:func:`unfinished_text`); ``OUT`` must already hold this study with as many replicas per
-    point (StudyError otherwise) and only the table is written.
-
-    One run at a time writes ``OUT``: it holds the lock file ``OUT/.hydrojam.lock`` while it runs
+    dask cluster, the most expensive points first. On KeyboardInterrupt the futures are
+    cancelled, the cluster closed, and the interrupt re-raised: finished points are on disk. One
+    run at a time writes ``OUT``: it holds the lock file ``OUT/.hydrojam.lock`` while it runs
     (:data:`hydrojam._io.FOLDER_LOCK`; a lock left by a killed process of this host is taken over).
 
-    Raises StudyError for a point the simulator does not support, an ``OUT`` that holds another
-    study (``OUT/study.toml`` with another name; the same name resumes) or that another run is
-    writing (its lock file), ValueError for workers < 1, SchedulerError when the scheduler cannot
-    be reached; none of them writes anything.
+    Parameters
+    ----------
+    study : Study
+        The study to run.
+    out : str or os.PathLike
+        The output folder OUT.
+    workers : int, optional
+        Single-threaded processes of a local cluster, >= 1 (default: one per CPU, at most one per
+        point to run).
+    scheduler : str, optional
+        Address of a dask scheduler to use instead of a local cluster.
+    on_point : callable, optional
+        ``on_point(outcome, done, total)``, called for every distinct design, the cached ones
+        first, then each as it finishes.
+    point_fn : callable, optional
+        ``point_fn(design, point_dir) -> metrics``, what a point runs (default :func:`run_point`);
+        its exceptions are recorded as failed points.
+    on_running : callable, optional
+        ``on_running(points, done, total)``, called every ``progress_interval_s`` while points run,
+        from another thread, with the points started by this call that have an accepted state and
+        no result yet (:class:`RunningPoint`; read from their history.csv, so only where the workers
+        share OUT's file system).
+    progress_interval_s : float, optional
+        Seconds between ``on_running`` calls [s] (default :data:`PROGRESS_INTERVAL_S`).
+    run : bool, optional
+        False runs nothing: the table of the points finished so far, a point failed earlier as
+        failed, every other one with status ``unfinished`` and where it stands as its error
+        (:func:`unfinished_text`); ``OUT`` must already hold this study with as many replicas per
+        point, and only the table is written.
+
+    Returns
+    -------
+    SweepTable
+        One row per (sweep, point), also written to ``OUT/results.csv`` and
+        ``OUT/results.parquet``.
+
+    Raises
+    ------
+    StudyError
+        For a point the simulator does not support, an ``OUT`` that holds another study
+        (``OUT/study.toml`` with another name; the same name resumes) or that another run is
+        writing (its lock file), or (``run=False``) an ``OUT`` without this study.
+    ValueError
+        For ``workers`` < 1.
+    SchedulerError
+        When the scheduler cannot be reached.
+
+    Notes
+    -----
+    None of the errors above writes anything.
     """
     from hydrojam.actuator.model import check_supported
 
