@@ -69,6 +69,8 @@ VARIANTS = {
     "lm_cutoff_1e-12": {"options": {"newton": {"marquardt_cutoff": 1e-12}}},
     "lm_decay_3": {"options": {"newton": {"marquardt_decay": 3.0}}},
     "rtol_1e-5": {"options": {"newton": {"rtol": 1e-5}}},
+    # an undamped step that runs out of its 200 iterations is retried damped at once
+    "undamped_1": {"options": {"undamped_blocks": 1}},
 }
 
 

@@ -207,3 +207,35 @@ def test_a_path_resumed_while_relaxing_its_damping_goes_on_as_in_one_go():
         assert [(h.ds, h.damping, h.rejected) for h in resumed.history] == \
             [(h.ds, h.damping, h.rejected) for h in whole.history], stop
         assert np.array_equal(resumed.x, whole.x), stop
+
+
+
+def test_an_undamped_step_that_runs_out_goes_on_in_blocks_before_the_damping_comes_in():
+    """Every step first tried undamped (``damping_start`` 0), with a Newton budget of 2 that the
+    stable steps before the snap (3-5 iterations) exceed. With one block they run out and are
+    retried damped; with ``undamped_blocks`` 4 each goes on from its last iterate and converges
+    undamped, its record counting every block's iterations, on the left root of E' = 0 (the
+    state before the snap), within its residual over the curvature."""
+    from scipy.optimize import brentq
+
+    def path(blocks):
+        problem, options, _ = _snap(10.0)  # a fresh stabilisation each time: a path leaves its scale
+        options = dataclasses.replace(options, damping_start=0.0, release=ReleaseOptions(), undamped_blocks=blocks,
+                                      newton=dataclasses.replace(options.newton, max_iter=2))
+        return solve_path(problem, options, callback=lambda s, x, rec: states.append((s, x[0, 0], rec)))
+
+    states = []
+    one = path(1)
+    assert any(rec.damping > 0 for s, _, rec in states if s < S_CRITICAL)
+    states = []
+    blocks = path(4)
+    assert one.converged and blocks.converged
+    # the steps of ds 0.1 before the snap's (which fails without descent, not by running out)
+    before = [(s, u, rec) for s, u, rec in states if s < S_CRITICAL - 0.01]
+    assert before and all(rec.damping == 0 for _, _, rec in before)
+    assert max(rec.iterations for _, _, rec in before) > 2
+    for s, u, rec in before:
+        root = brentq(lambda v: 4 * A * v * (v * v - 1) - s * F, -1.5, -1 / math.sqrt(3))
+        # the error of a state is its residual over the curvature (a round-off stop leaves the
+        # residual within stall_factor of the tolerance)
+        assert abs(u - root) <= 2 * max(rec.residual, rec.tolerance) / (A * (12 * root * root - 4))

@@ -112,6 +112,11 @@ class PathOptions:
     """Start every step after the first from the linear extrapolation of the last increment (the
     positions' change over the last accepted step, scaled to this one's ds; ABAQUS's default
     predictor), shortened (1, 1/2, 1/4, 0) until admissible and collision-free like any step."""
+    undamped_blocks: int = 1
+    """An undamped attempt (the damped term at scale 0, :attr:`damping_start` 0) that runs out of
+    iterations goes on from its last iterate (admissible, and lower in energy) for up to this many
+    blocks of ``newton.max_iter`` iterations in all before the damping comes in: a snap must
+    travel, and undamped Newton travels it without the release a damped step then needs. 1: off."""
     release: ReleaseOptions = ReleaseOptions()
     """How the damped term is taken off at every accepted step (:class:`ReleaseOptions`)."""
     damping_relax_after: int = 0
@@ -520,6 +525,7 @@ def solve_path(
             damped.scale = base * resume.damping
     message = "converged"
     newton, last_resort, failed_here = options.newton, False, 0
+    carry, carried, carried_its = None, 0, 0  # an undamped attempt that ran out, going on (undamped_blocks)
     while s < 1.0 - options.end_tolerance:
         ds = min(ds, 1.0 - s)
         s_try = s + ds
@@ -529,9 +535,12 @@ def solve_path(
         problem.apply_dirichlet(x_bc, s_try)
         for t in terms:  # lagged quantities (friction, stabilisation) freeze at the start of the step
             t.begin_step(x.reshape(shape))
-        x_start = _predictor(problem, terms, x, x_bc, free, solver)
-        if x_start is not None and previous is not None and options.extrapolate:
-            x_start = _extrapolated(terms, x, x_start, previous, ds, free, shape)
+        if carry is not None:
+            x_start = carry
+        else:
+            x_start = _predictor(problem, terms, x, x_bc, free, solver)
+            if x_start is not None and previous is not None and options.extrapolate:
+                x_start = _extrapolated(terms, x, x_start, previous, ds, free, shape)
         if x_start is None:
             res = NewtonResult(x.reshape(shape), NewtonStatus.INADMISSIBLE_START, 0, np.inf, np.inf,
                                "the prescribed displacement increment is not admissible", [], Timings())
@@ -555,7 +564,8 @@ def solve_path(
             previous = (x, ds)
             x = x_new.ravel().copy()
             negative = None
-            its = res.iterations + (0 if rel is None else rel.iterations)
+            its = carried_its + res.iterations + (0 if rel is None else rel.iterations)
+            carry, carried, carried_its = None, 0, 0
             if rel is not None:
                 residual, tolerance = rel.residual, rel.tolerance
             else:  # undamped, or a stabilised state whose residual includes the viscous force
@@ -598,6 +608,11 @@ def solve_path(
                                              tuple(history), rejected, dataclasses.replace(tm), solver.pattern,
                                              ds_cut, previous))
         else:
+            if (damped is not None and damped.scale == 0 and res.status is NewtonStatus.MAX_ITERATIONS
+                    and carried + 1 < options.undamped_blocks):
+                carry, carried, carried_its = res.x.ravel().copy(), carried + 1, carried_its + res.iterations
+                continue
+            carry, carried, carried_its = None, 0, 0
             rejected += 1
             failed_here += 1
             if rel is not None:  # the step converged stabilised but could not be released: a shorter one
