@@ -239,3 +239,24 @@ def test_an_undamped_step_that_runs_out_goes_on_in_blocks_before_the_damping_com
         # the error of a state is its residual over the curvature (a round-off stop leaves the
         # residual within stall_factor of the tolerance)
         assert abs(u - root) <= 2 * max(rec.residual, rec.tolerance) / (A * (12 * root * root - 4))
+
+
+def test_damped_attempts_start_where_the_undamped_blocks_stopped():
+    """With ``damped_from_blocks`` a step whose undamped block ran out (a Newton budget of 2, one
+    block, against the 3-5 iterations the stable steps need) is retried damped from the
+    blocks' last iterate, its damping centred there, and released: every state before the snap
+    is still on the analytic branch, and each step's record counts the blocks' iterations too."""
+    from scipy.optimize import brentq
+
+    problem, options, _ = _snap(10.0)
+    options = dataclasses.replace(options, damping_start=0.0, release=ReleaseOptions(), undamped_blocks=1,
+                                  damped_from_blocks=True, newton=dataclasses.replace(options.newton, max_iter=2))
+    states = []
+    res = solve_path(problem, options, callback=lambda s, x, rec: states.append((s, x[0, 0], rec)))
+    assert res.converged
+    before = [(s, u, rec) for s, u, rec in states if s < S_CRITICAL - 0.01]
+    assert before and any(rec.damping > 0 for _, _, rec in before)
+    for s, u, rec in before:
+        root = brentq(lambda v: 4 * A * v * (v * v - 1) - s * F, -1.5, -1 / math.sqrt(3))
+        assert abs(u - root) <= 2 * max(rec.residual, rec.tolerance) / (A * (12 * root * root - 4))
+        assert rec.iterations >= 2 or rec.damping == 0

@@ -117,6 +117,10 @@ class PathOptions:
     iterations goes on from its last iterate (admissible, and lower in energy) for up to this many
     blocks of ``newton.max_iter`` iterations in all before the damping comes in: a snap must
     travel, and undamped Newton travels it without the release a damped step then needs. 1: off."""
+    damped_from_blocks: bool = False
+    """Where the last undamped block ran out too, the damped attempts of the step start from its
+    last iterate, with the lagged quantities (friction, the damping's centre) frozen there as at
+    a step's start, instead of from the step's start: the blocks' travel is kept."""
     release: ReleaseOptions = ReleaseOptions()
     """How the damped term is taken off at every accepted step (:class:`ReleaseOptions`)."""
     damping_relax_after: int = 0
@@ -526,6 +530,7 @@ def solve_path(
     message = "converged"
     newton, last_resort, failed_here = options.newton, False, 0
     carry, carried, carried_its = None, 0, 0  # an undamped attempt that ran out, going on (undamped_blocks)
+    restart = None  # where the step's damped attempts start (damped_from_blocks)
     while s < 1.0 - options.end_tolerance:
         ds = min(ds, 1.0 - s)
         s_try = s + ds
@@ -537,6 +542,10 @@ def solve_path(
             t.begin_step(x.reshape(shape))
         if carry is not None:
             x_start = carry
+        elif restart is not None:
+            for t in terms:
+                t.begin_step(restart.reshape(shape))
+            x_start = restart
         else:
             x_start = _predictor(problem, terms, x, x_bc, free, solver)
             if x_start is not None and previous is not None and options.extrapolate:
@@ -565,7 +574,7 @@ def solve_path(
             x = x_new.ravel().copy()
             negative = None
             its = carried_its + res.iterations + (0 if rel is None else rel.iterations)
-            carry, carried, carried_its = None, 0, 0
+            carry, carried, carried_its, restart = None, 0, 0, None
             if rel is not None:
                 residual, tolerance = rel.residual, rel.tolerance
             else:  # undamped, or a stabilised state whose residual includes the viscous force
@@ -612,7 +621,12 @@ def solve_path(
                     and carried + 1 < options.undamped_blocks):
                 carry, carried, carried_its = res.x.ravel().copy(), carried + 1, carried_its + res.iterations
                 continue
-            carry, carried, carried_its = None, 0, 0
+            if (options.damped_from_blocks and damped is not None and damped.scale == 0
+                    and res.status is NewtonStatus.MAX_ITERATIONS):
+                restart, carried_its = res.x.ravel().copy(), carried_its + res.iterations
+            carry, carried = None, 0
+            if restart is None:
+                carried_its = 0
             rejected += 1
             failed_here += 1
             if rel is not None:  # the step converged stabilised but could not be released: a shorter one
@@ -620,6 +634,7 @@ def solve_path(
                     f"the stabilisation could not be released in {len(rel.rounds)} rounds"))
                 ds_cut = max(ds_cut, ds)
                 ds *= 0.5
+                restart, carried_its = None, 0
                 if ds < options.ds_min:
                     message = (f"load step failed at s = {s_try:.6g} (increment {2 * ds:.3g} < minimum "
                                f"{options.ds_min:g}): {res.message}; last converged state kept at s = {s:.6g}")
@@ -632,6 +647,7 @@ def solve_path(
                 continue
             ds_cut = max(ds_cut, ds)
             ds *= 0.5
+            restart, carried_its = None, 0
             if ds < options.ds_min and not last_resort and res.status is NewtonStatus.MAX_ITERATIONS:
                 # A snap (jammed particles rearranging) has no nearby equilibrium: the state must
                 # travel, which takes many iterations, not a smaller increment. One long attempt.
