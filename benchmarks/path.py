@@ -71,8 +71,8 @@ VARIANTS = {
     "rtol_1e-5": {"options": {"newton": {"rtol": 1e-5}}},
     # an undamped step that runs out of its 200 iterations is retried damped at once
     "undamped_1": {"options": {"undamped_blocks": 1}},
-    # where the undamped blocks all ran out, the damped attempts start from their last iterate
-    "damped_from_blocks": {"options": {"damped_from_blocks": True}},
+    # where the undamped blocks all ran out, the damped attempts start from the step's start
+    "damped_from_step_start": {"options": {"damped_from_blocks": False}},
 }
 
 

@@ -120,7 +120,8 @@ class PathOptions:
     damped_from_blocks: bool = False
     """Where the last undamped block ran out too, the damped attempts of the step start from its
     last iterate, with the lagged quantities (friction, the damping's centre) frozen there as at
-    a step's start, instead of from the step's start: the blocks' travel is kept."""
+    a step's start, instead of from the step's start: the blocks' travel is kept, and the damping
+    does not hold the state back to where the step began."""
     release: ReleaseOptions = ReleaseOptions()
     """How the damped term is taken off at every accepted step (:class:`ReleaseOptions`)."""
     damping_relax_after: int = 0
