@@ -539,13 +539,13 @@ def solve_path(
         terms = problem.terms(s_try)
         x_bc = x.copy()
         problem.apply_dirichlet(x_bc, s_try)
-        for t in terms:  # lagged quantities (friction, stabilisation) freeze at the start of the step
-            t.begin_step(x.reshape(shape))
+        # lagged quantities (friction, stabilisation) freeze at the start of the step, or where its
+        # damped attempts restart (damped_from_blocks)
+        for t in terms:
+            t.begin_step((x if restart is None else restart).reshape(shape))
         if carry is not None:
             x_start = carry
         elif restart is not None:
-            for t in terms:
-                t.begin_step(restart.reshape(shape))
             x_start = restart
         else:
             x_start = _predictor(problem, terms, x, x_bc, free, solver)
@@ -618,16 +618,15 @@ def solve_path(
                                              tuple(history), rejected, dataclasses.replace(tm), solver.pattern,
                                              ds_cut, previous))
         else:
-            if (damped is not None and damped.scale == 0 and res.status is NewtonStatus.MAX_ITERATIONS
-                    and carried + 1 < options.undamped_blocks):
+            ran_out_undamped = damped is not None and damped.scale == 0 and res.status is NewtonStatus.MAX_ITERATIONS
+            if ran_out_undamped and carried + 1 < options.undamped_blocks:
                 carry, carried, carried_its = res.x.ravel().copy(), carried + 1, carried_its + res.iterations
                 continue
-            if (options.damped_from_blocks and damped is not None and damped.scale == 0
-                    and res.status is NewtonStatus.MAX_ITERATIONS):
+            if ran_out_undamped and options.damped_from_blocks:
                 restart, carried_its = res.x.ravel().copy(), carried_its + res.iterations
-            carry, carried = None, 0
-            if restart is None:
+            elif restart is None:
                 carried_its = 0
+            carry, carried = None, 0
             rejected += 1
             failed_here += 1
             if rel is not None:  # the step converged stabilised but could not be released: a shorter one
