@@ -45,6 +45,7 @@ from _trace import IterationTrace  # noqa: E402
 import hydrojam.actuator.simulate as simulate_module  # noqa: E402
 from hydrojam.actuator.design import apply_overrides, default_design, with_replicas  # noqa: E402
 from hydrojam.actuator.model import build_model  # noqa: E402
+from hydrojam.fem.linsolve import LinearSolver  # noqa: E402
 from hydrojam.fem.path import ReleaseOptions  # noqa: E402
 
 DESIGNS = {"one_layer": ["particle_layers=1"], "default": [],
@@ -73,11 +74,14 @@ VARIANTS = {
     "undamped_1": {"options": {"undamped_blocks": 1}},
     # where the undamped blocks all ran out, the damped attempts start from the step's start
     "damped_from_step_start": {"options": {"damped_from_blocks": False}},
+    # the linear solver without the contact term's reach pattern: the union of recent patterns
+    "no_reach": {"solver": {"use_reach": False}},
 }
 
 
 def _simulate_kwargs(variant: str) -> dict:
     kw = dict(VARIANTS[variant])
+    kw.pop("solver", None)
     if "options" in kw:
         fields = dict(kw["options"])
         base = simulate_module.ACTUATOR_PATH
@@ -119,6 +123,10 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
         return paths[-1]
 
     simulate_module.solve_path = solve_path
+    solver_attrs = VARIANTS[variant].get("solver", {})  # LinearSolver class attributes, for this run
+    saved_attrs = {k: getattr(LinearSolver, k) for k in solver_attrs}
+    for k, v in solver_attrs.items():
+        setattr(LinearSolver, k, v)
     tracer = IterationTrace() if trace else None
     try:
         t0 = time.perf_counter()
@@ -138,6 +146,8 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
         wall = time.perf_counter() - t0
     finally:
         simulate_module.solve_path = original_path
+        for k, v in saved_attrs.items():
+            setattr(LinearSolver, k, v)
         if tracer is not None:
             tracer.uninstall()
     if tracer is not None:

@@ -6,6 +6,7 @@ import subprocess
 import sys
 
 import numpy as np
+import scipy.sparse as sp
 import pytest
 
 from hydrojam.fem.meshing import ball, box, disks, half_disk, quarter_hemisphere, rectangle
@@ -321,3 +322,54 @@ def test_friction_block_slides_above_the_friction_angle():
     res, slip = _block_on_ground(0.8, 0.5)
     assert not res.converged
     assert res.s == pytest.approx(0.8125, abs=0.06)
+
+
+def _pattern_holds(P, H):
+    """Whether every stored entry of H lies in the sparsity pattern of P."""
+    H = sp.csr_matrix(H)
+    H.eliminate_zeros()
+    Hb, Pb = H.astype(bool), sp.csr_matrix(P).astype(bool)
+    return (Hb > Pb).nnz == 0
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_the_hessian_pattern_holds_every_collision_within_reach(dim):
+    """Two blocks a gap of dhat + 1.6 reach apart (no collision) move towards each other by
+    0.7 reach and every vertex by up to 0.29 reach more in a random direction: each vertex
+    moves less than reach, the gap closes below dhat, and the Hessian at the moved state (its
+    new collisions, whatever features ipctk reduces them to) lies in the pattern given at the
+    start. A third block 1 mm away is coupled to neither: the pattern is not the candidates'
+    boxes but the pairs within dhat + 2 reach."""
+    dhat = 0.01
+    settings = ContactSettings(dhat=dhat, kappa=1.0)
+    gap = dhat + 1.6 * settings.reach
+    if dim == 2:
+        parts = {"a": rectangle(1.0, 1.0, 0.25), "b": rectangle(1.0, 1.0, 0.25, origin=(1.0 + gap, 0.0)),
+                 "c": rectangle(1.0, 1.0, 0.25, origin=(0.0, 2.0))}
+    else:
+        parts = {"a": box(1.0, 1.0, 1.0, 0.5), "b": box(1.0, 1.0, 1.0, 0.5, origin=(1.0 + gap, 0.0, 0.0)),
+                 "c": box(1.0, 1.0, 1.0, 0.5, origin=(0.0, 0.0, 2.0))}
+    m = merge(parts)
+    comp = components_of(m, ["a", "b", "c"])
+    C = Contact(m.points, m.boundary_facets(), comp, settings)
+    x0 = m.points.copy()
+    assert C.active(x0) == 0
+    P = C.hessian_pattern(x0)
+    rng = np.random.default_rng(3)
+    u = rng.standard_normal(x0.shape)
+    u *= 0.29 * settings.reach / np.linalg.norm(u, axis=1, keepdims=True)
+    u[comp == 0, 0] += 0.7 * settings.reach
+    u[comp == 1, 0] -= 0.7 * settings.reach
+    x1 = x0 + u
+    assert np.linalg.norm(u, axis=1).max() < settings.reach
+    assert not C.has_intersections(x1) and C.active(x1) > 0
+    assert _pattern_holds(P, C.hessian(x1)) and _pattern_holds(P, C.hessian(x1, project=True))
+    far = np.flatnonzero(np.repeat(comp == 2, dim))
+    assert sp.csr_matrix(P)[far].nnz == 0
+
+
+def test_the_pattern_reach_defaults_to_half_dhat_and_refuses_a_negative_one():
+    assert ContactSettings(dhat=0.02, kappa=1.0).reach == pytest.approx(0.01)
+    assert ContactSettings(dhat=0.02, kappa=1.0, pattern_reach=0.3).reach == 0.3
+    with pytest.raises(ValueError, match="pattern_reach"):
+        ContactSettings(dhat=0.02, kappa=1.0, pattern_reach=-1.0)

@@ -296,3 +296,100 @@ def test_a_sparse_2d_pattern_computes_its_own_ordering():
     for K, b in _contact_sequence(seed=7):
         assert np.array_equal(a.solve(K, b), b_.solve(K, b))
     assert a.reorderings == a.analyses and a._ordering is None
+
+
+def _dense(monkeypatch):
+    """Let the grid matrices count as dense (3D-like), where the reach is heeded."""
+    from hydrojam.fem.linsolve import _Pardiso
+
+    monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
+
+
+def _pattern_of(matrices):
+    """The union of the matrices' sparsity patterns (values 1)."""
+    P = sum(abs(K) for K in matrices)
+    P = sp.csr_matrix(P)
+    P.data[:] = 1.0
+    return P
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_a_reach_pattern_holding_every_matrix_is_analysed_once(monkeypatch):
+    """A reach that holds the patterns of the whole sequence: one analysis, the hint asked for
+    once (at the first solve, nothing analysed yet), and every solution as accurate as a dense
+    solve promises (100 x eps x cond(K) relative to |x|): the hint changes bookkeeping only."""
+    _dense(monkeypatch)
+    seq = _contact_sequence(seed=2)
+    P = _pattern_of([K for K, _ in seq])
+    asked = []
+
+    def reach():
+        asked.append(1)
+        return P
+
+    solver = LinearSolver("pardiso")
+    for K, b in seq:
+        x = solver.solve(K, b, reach)
+        Kd = K.toarray()
+        x_ref = np.linalg.solve(Kd, b)
+        assert np.linalg.norm(x - x_ref) <= 100 * np.finfo(float).eps * np.linalg.cond(Kd) * np.linalg.norm(x_ref)
+    assert solver.analyses == 1 and len(asked) == 1
+    plain = LinearSolver("pardiso")
+    for K, b in seq:
+        plain.solve(K, b)
+    assert plain.analyses > 1
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_a_matrix_leaving_the_reach_restarts_the_union_from_it_and_the_new_reach(monkeypatch):
+    """A reach that holds only the next few matrices: a matrix outside it is analysed on its
+    own pattern and the reach asked then, with no older pattern kept (a union that grew with
+    every contact seen would slow each factorisation); a matrix inside it is not analysed
+    again, however little of the reach it fills."""
+    _dense(monkeypatch)
+    seq = _contact_sequence(seed=3)
+    window = 5
+    solver = LinearSolver("pardiso")
+    for i, (K, b) in enumerate(seq):
+        before = solver.analyses
+        solver.solve(K, b, lambda i=i: _pattern_of([K for K, _ in seq[i:i + window]]))
+        if solver.analyses > before:
+            assert solver._union.nnz == sp.triu(_pattern_of([K for K, _ in seq[i:i + window]])).nnz
+    assert solver._union.hinted and solver.analyses <= -(-len(seq) // window)
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_a_reach_of_another_shape_is_refused(monkeypatch):
+    _dense(monkeypatch)
+    K, b = _contact_sequence(seed=4, steps=1)[0]
+    with pytest.raises(ValueError, match="reach pattern of shape"):
+        LinearSolver("pardiso").solve(K, b, lambda: sp.identity(K.shape[0] + 1, format="csr"))
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_a_restored_solver_goes_on_bit_for_bit_with_a_reach(monkeypatch):
+    """The reach's union survives a checkpoint: a restored solver keeps it (not restarted by the
+    fill rule of unions without a reach) and goes on with the same bits."""
+    _dense(monkeypatch)
+    seq = _contact_sequence(seed=5)
+    P = _pattern_of([K for K, _ in seq[:12]])
+    first = LinearSolver("pardiso")
+    for K, b in seq[:6]:
+        first.solve(K, b, lambda: P)
+    second = LinearSolver("pardiso")
+    second.restore_pattern(first.pattern)
+    assert second._union.hinted
+    for K, b in seq[6:]:
+        assert np.array_equal(first.solve(K, b, lambda: P), second.solve(K, b, lambda: P))
+    assert second.analyses == first.analyses  # the restored union analysed once, as first's was
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+def test_a_sparse_2d_pattern_ignores_the_reach():
+    """Below ``dense_row`` (2D) the reach is not asked for: the same bits as without it."""
+    seq = _contact_sequence(seed=8)
+    P = _pattern_of([K for K, _ in seq])
+    a, b_ = LinearSolver("pardiso"), LinearSolver("pardiso")
+    for K, b in seq:
+        assert np.array_equal(a.solve(K, b, lambda: 1 / 0), b_.solve(K, b))
+    assert a.analyses == b_.analyses and P.nnz

@@ -21,6 +21,7 @@ is a body, or bodies bonded by shared nodes) can collide.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import ipctk
 import numpy as np
@@ -81,6 +82,10 @@ class ContactSettings:
         The Tight Inclusion CCD's tolerance [-] (None: ipctk's default, 1e-6).
     ccd_max_iterations : int, optional
         Its iteration cap (None: ipctk's default, 1e7).
+    pattern_reach : float, optional
+        How far [mm] every vertex may move from a state before its Hessian may leave the
+        sparsity pattern :meth:`Contact.hessian_pattern` gives there (None: ``pattern_dhats``
+        times dhat).
     """
 
     dhat: float
@@ -90,6 +95,16 @@ class ContactSettings:
     pair_friction: dict | None = None
     ccd_tolerance: float | None = None
     ccd_max_iterations: int | None = None
+    pattern_reach: float | None = None
+
+    pattern_dhats: ClassVar[float] = 0.5
+    """The default ``pattern_reach`` in units of dhat (docs/solver.md, "A changing contact
+    pattern")."""
+
+    @property
+    def reach(self) -> float:
+        """The pattern's reach [mm]: ``pattern_reach``, or ``pattern_dhats`` times dhat."""
+        return self.pattern_dhats * self.dhat if self.pattern_reach is None else self.pattern_reach
 
     def __post_init__(self):
         if not self.dhat > 0:
@@ -98,6 +113,8 @@ class ContactSettings:
             raise ValueError(f"contact kappa must be > 0 MPa (got {self.kappa})")
         if self.friction < 0:
             raise ValueError(f"friction coefficient must be >= 0 (got {self.friction})")
+        if self.pattern_reach is not None and not self.pattern_reach >= 0:
+            raise ValueError(f"contact pattern_reach must be >= 0 mm (got {self.pattern_reach})")
 
 
 def default_settings(
@@ -279,6 +296,55 @@ class Contact(EnergyTerm):
             V0, tc = self._friction
             H = H + self._friction_potential.hessian(tc, self._cm, np.asfortranarray(V - V0), method)
         return sp.csr_matrix(self._cm.to_full_dof(sp.csc_matrix(H)))
+
+    def hessian_pattern(self, x: np.ndarray) -> sp.csr_matrix:
+        """Every coupling [full DOFs, (n*d, n*d), values 1] that a collision can bring while no
+        vertex moves more than ``settings.reach`` [mm] from x [mm]: the whole stencils (a face
+        and a vertex, two edges; 2D: an edge and a vertex) of the primitive pairs closer than
+        dhat + 2 reach at x. A pair within dhat after each of its vertices moved by less than
+        reach was within dhat + 2 reach at x; whole stencils, not those of the closest
+        features ipctk reduces a pair to, so that a point sliding from an edge onto its face
+        stays inside. The pairs are ipctk's broad-phase candidates (boxes inflated by
+        dhat / 2 + reach) kept where ipctk's exact distance is below dhat + 2 reach: the
+        candidates alone couple primitives whose boxes merely overlap, and on a jammed 3D
+        packing their fill slowed every factorisation more than the analyses they saved
+        (docs/solver.md, "A changing contact pattern")."""
+        V = self._vertices(x)
+        reach = self.settings.reach
+        cand = ipctk.Candidates()
+        cand.build(self._cm, V, 0.5 * self.settings.dhat + reach)
+        limit = (self.settings.dhat + 2.0 * reach) ** 2  # ipctk's distances are squared
+        E, F = self._cm.edges, self._cm.faces
+        kept = []
+        if self.dim == 2:
+            distance = ipctk.point_edge_distance
+            for c in cand.ev_candidates:
+                a, b = E[c.edge_id]
+                v = c.vertex_id
+                if distance(V[v], V[a], V[b]) < limit:
+                    kept.append((a, b, v))
+        else:
+            pt, ee = ipctk.point_triangle_distance, ipctk.edge_edge_distance
+            for c in cand.fv_candidates:
+                a, b, f = F[c.face_id]
+                v = c.vertex_id
+                if pt(V[v], V[a], V[b], V[f]) < limit:
+                    kept.append((a, b, f, v))
+            for c in cand.ee_candidates:
+                (a, b), (e, f) = E[c.edge0_id], E[c.edge1_id]
+                if ee(V[a], V[b], V[e], V[f]) < limit:
+                    kept.append((a, b, e, f))
+        d, n = self.dim, self.X.size
+        stencils = np.array(kept, dtype=np.int64).reshape(-1, d + 1)
+        m, nv = stencils.shape[1], self._cm.num_vertices
+        vi, vj = np.repeat(stencils, m, axis=1).ravel(), np.tile(stencils, (1, m)).ravel()
+        pairs = sp.coo_matrix((np.ones(len(vi)), (vi, vj)), shape=(nv, nv)).tocsr().tocoo()  # unique
+        rows = (self.vertex_ids[pairs.row] * d)[:, None, None] + np.arange(d)[None, :, None]
+        cols = (self.vertex_ids[pairs.col] * d)[:, None, None] + np.arange(d)[None, None, :]
+        rows, cols = np.broadcast_arrays(rows, cols)
+        P = sp.csr_matrix((np.ones(rows.size), (rows.ravel(), cols.ravel())), shape=(n, n))
+        P.data[:] = 1.0
+        return P
 
     def max_step(self, x: np.ndarray, dx: np.ndarray) -> float:
         """Largest collision-free fraction of the step x -> x + dx (continuous collision detection)."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 import ctypes
 import time
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -173,6 +174,9 @@ class _UpperPattern:
         self.ia = (self.indptr + 1).astype(np.int32)
         self.ja = (self.indices + 1).astype(np.int32)
         self.empty_row = not np.diff(indptr).all()
+        self.hinted = False
+        """Whether it holds a reach pattern (:meth:`LinearSolver.solve`): kept until a matrix
+        leaves it, however little of it the matrices fill."""
         self.key = (self.n, hash(self.ia.tobytes()), hash(self.ja.tobytes()))
 
 
@@ -224,6 +228,11 @@ class LinearSolver:
     contact couplings hardly change what a good one is (docs/solver.md, "Linear solver"). 2D
     patterns (minimum degree, a cheap ordering: 5% of a solve measured) keep computing theirs,
     and their bits."""
+    use_reach: bool = True
+    """Whether :meth:`solve` heeds its ``reach`` hint for dense patterns (3D: more than
+    ``_Pardiso.dense_row`` upper entries a row; False: the union of the patterns seen lately,
+    as without a hint). 2D patterns keep the union of the patterns seen lately, and their bits
+    (docs/solver.md, "A changing contact pattern")."""
     reorder_fill: float = 1.05
     """The ordering is computed afresh at the next analysis once the factor of an analysis on a
     reused ordering holds more than this times the entries per matrix entry of the analysis that
@@ -253,13 +262,13 @@ class LinearSolver:
         self.threads = positive_int("HYDROJAM_SOLVER_THREADS", 1)
         self.reuse_analysis = flag("HYDROJAM_REUSE_ANALYSIS", True)
 
-    def _solve_pardiso(self, K: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
+    def _solve_pardiso(self, K: sp.csr_matrix, b: np.ndarray, reach=None) -> np.ndarray:
         if self._pardiso is None:
             self._pardiso = _Pardiso(self.threads)
         if not K.has_canonical_format:  # duplicates or unsorted: sum them as triu's COO route does
             K = sp.triu(K, format="csr")
             K.sort_indices()
-        pattern, data = self._on_union_pattern(self._gather(K), K)
+        pattern, data = self._on_union_pattern(self._gather(K), K, reach)
         if pattern.empty_row:  # PARDISO would crash on it (pypardiso refuses it too)
             raise LinearSolveError("pardiso: matrix is singular (an empty row)")
         # The symbolic analysis (ordering) depends only on the sparsity pattern: reuse it while the
@@ -315,28 +324,49 @@ class LinearSolver:
         self._gathers = [g] + self._gathers[: self._kept_patterns - 1]
         return g
 
-    def _on_union_pattern(self, g: _Gather, K: sp.csr_matrix) -> tuple[_UpperPattern, np.ndarray]:
+    def _on_union_pattern(self, g: _Gather, K: sp.csr_matrix, reach=None) -> tuple[_UpperPattern, np.ndarray]:
         """K's upper triangle stored on the union of the sparsity patterns seen lately (explicit
         zeros where it has no entry), so that contacts coming and going do not change the pattern
-        and PARDISO's analysis is reused: the pattern and the values on it. The union restarts
+        and PARDISO's analysis is reused: the pattern and the values on it.
+
+        Without ``reach``, a new entry merges K's pattern into the union, and the union restarts
         from K's own pattern when that fills less than 70% of it (contacts long gone would only
-        slow the factorisation). Without analysis reuse, K's own pattern. Where K's entries lie
-        in the union and the merge of the two are compiled row-by-row walks of the sorted rows
-        (fem/_kernels.py): exact, so the same patterns as any other way of finding them."""
+        slow the factorisation). With ``reach`` (see :meth:`solve`), a new entry restarts the
+        union from K's pattern and the pattern ``reach()`` gives, and that union stays, however
+        little of it later matrices fill, until one leaves it. Without analysis reuse, K's own
+        pattern. Where K's entries lie in the union and the merge of the two are compiled
+        row-by-row walks of the sorted rows (fem/_kernels.py): exact, so the same patterns as any
+        other way of finding them."""
         u = self._union
         if g.pattern is None or g.pattern is not u:
             k = _kernels()
-            pos = None
+            pos, hint = None, None
+            dense = len(K.indices) > 2 * _Pardiso.dense_row * K.shape[0]  # as reuse_ordering: 3D only
+            reach = reach if self.reuse_analysis and self.use_reach and dense else None
             if self.reuse_analysis and u is not None and u.n == K.shape[0]:
                 pos, missing = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
-                if np.count_nonzero(pos != -2) < 0.7 * u.nnz:
+                if missing and reach is not None:
+                    hint = reach()
+                if hint is not None:
+                    pos = None  # restart from K's pattern and the reach
+                elif not u.hinted and np.count_nonzero(pos != -2) < 0.7 * u.nnz:
                     pos = None  # restart from K's own pattern
                 elif missing:  # merge: the union of the two patterns
                     u = _UpperPattern(*k.merge_upper(K.indptr, K.indices, u.indptr, u.indices))
                     pos, _ = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
+            elif reach is not None:
+                hint = reach()
             if pos is None:
-                u = _UpperPattern(*k.merge_upper(K.indptr, K.indices, np.zeros(K.shape[0] + 1, dtype=np.int64),
-                                                  np.zeros(0, dtype=np.int64)))
+                n = K.shape[0]
+                base = (np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64))
+                if hint is not None:
+                    R = sp.csr_matrix(hint, dtype=np.float64)
+                    if R.shape != K.shape:
+                        raise ValueError(f"a reach pattern of shape {R.shape} for a matrix of shape {K.shape}")
+                    R.sum_duplicates()  # canonical: sorted rows
+                    base = k.merge_upper(R.indptr, R.indices.astype(np.int64), *base)
+                u = _UpperPattern(*k.merge_upper(K.indptr, K.indices, *base))
+                u.hinted = hint is not None
                 pos, _ = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
             g.src = np.flatnonzero(pos >= 0)
             self._union, g.pattern, g.dst = u, u, pos[g.src]
@@ -351,7 +381,8 @@ class LinearSolver:
         ``indptr[-1]`` entries in ``indices``, the orderings (:attr:`reuse_ordering`): the one the
         union was analysed with and the one the next new pattern would reuse, each as its length
         and entries, then the fill that decides when to order afresh (factor entries, matrix
-        entries). With :meth:`restore_pattern`, a new solver goes on as this one would have (the
+        entries) and whether the union holds a reach pattern (1, else 0; absent in records
+        written before there was a reach). With :meth:`restore_pattern`, a new solver goes on as this one would have (the
         same patterns and orderings, hence the same round-off)."""
         if self._union is None:
             return None
@@ -361,7 +392,7 @@ class LinearSolver:
             tail.append(np.array([0 if ordering is None else len(ordering)]))
             if ordering is not None:
                 tail.append(ordering)
-        tail.append(np.array(self._ordered_fill_of, dtype=np.int64))
+        tail.append(np.array(self._ordered_fill_of + (int(self._union.hinted),), dtype=np.int64))
         indices = np.concatenate([self._union.ja - 1] + tail).astype(np.int64)
         return (self._union.ia - 1).astype(np.int64), indices
 
@@ -387,17 +418,42 @@ class LinearSolver:
         if orderings[0] is not None and len(orderings[0]) == self._union.n:
             self._restored_ordering = (self._union, orderings[0])
         self._ordering = orderings[1]
-        if len(tail) == 2:
+        if len(tail) >= 2:
             self._ordered_fill_of = (int(tail[0]), int(tail[1]))
+        self._union.hinted = len(tail) == 3 and bool(tail[2])
 
-    def solve(self, K: sp.spmatrix, b: np.ndarray) -> np.ndarray:
-        """Solution u of K u = b; raises LinearSolveError if K is singular (the factorisation
-        fails) or u is not finite. Anything else (a wrong shape, a bug) propagates as it is."""
+    def solve(self, K: sp.spmatrix, b: np.ndarray, reach: Callable[[], sp.spmatrix] | None = None) -> np.ndarray:
+        """Solution u of K u = b.
+
+        Parameters
+        ----------
+        K : sparse matrix, shape (n, n)
+            Symmetric.
+        b : ndarray, shape (n,)
+            The right-hand side.
+        reach : callable, optional
+            Gives a sparsity pattern of K's shape (a sparse matrix; its values are ignored) that
+            the matrices to come are likely to lie in: every coupling the contacts within reach
+            of the current state could bring. Called only when K brings an entry that the last
+            analysis did not have; the new analysis is then made on K's pattern and this one
+            together, so that the next matrices within it reuse it. A hint for the factorisation's
+            bookkeeping: the solution does not depend on it.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+
+        Raises
+        ------
+        LinearSolveError
+            If K is singular (the factorisation fails) or u is not finite. Anything else (a wrong
+            shape, a bug) propagates as it is.
+        """
         t0 = time.perf_counter()
         K = sp.csr_matrix(K, dtype=np.float64)
         b = np.asarray(b, dtype=np.float64)
         try:
-            x = self._solve_pardiso(K, b) if self.method == "pardiso" else self._solve_scipy(K, b)
+            x = self._solve_pardiso(K, b, reach) if self.method == "pardiso" else self._solve_scipy(K, b)
         finally:
             self.seconds += time.perf_counter() - t0
             self.calls += 1

@@ -175,6 +175,18 @@ def _tolerance(terms, xs, grads, fidx, force_scale, options: NewtonOptions) -> f
     return max(options.rtol * in_play, options.residual_floor * force_scale)
 
 
+def _reach(terms, xs, fidx):
+    """The linear solver's hint (:meth:`LinearSolver.solve`'s ``reach``): a callable giving the
+    free block of the terms' Hessian patterns near xs, made only when asked (None where no term
+    gives one)."""
+
+    def reach():
+        patterns = [p for t in terms if (p := t.hessian_pattern(xs)) is not None]
+        return sp.csr_matrix(sum(patterns))[fidx][:, fidx] if patterns else None
+
+    return reach
+
+
 def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options: NewtonOptions):
     """The damped Newton direction: solve K dx = -g over the free DOFs with
     K = H + tau diag|H| + eps mean|diag H| I. ``hessians``: every term's Hessian at xs, as summed
@@ -193,6 +205,7 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
     """
     adaptive = options.projection == "adaptive"
     fallback = any(t.fallback_projection for t in terms)
+    reach = _reach(terms, xs, fidx)
     eps = options.regularisation * hdiag.mean()
     tau, dx, slope = lm, None, 0.0
     for attempt in range(options.damping_attempts):
@@ -205,7 +218,7 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
             tau = lm
         K = Hff + sp.diags(tau * hdiag + eps, format="csr")
         try:
-            cand = solver.solve(K, -g)
+            cand = solver.solve(K, -g, reach)
         except LinearSolveError:
             cand = None
         if cand is not None and np.linalg.norm(K @ cand + g) <= options.linear_residual * r:

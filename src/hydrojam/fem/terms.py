@@ -17,6 +17,11 @@ and may override these optional parts, whose defaults are what a term without th
 * ``force_flux(x, gradient=None)``: the forces in play for the convergence test, per DOF [N];
   default: this term's own gradient (``gradient`` if the caller has it at x already). A solid
   returns its internal-force flux, summed without the cancellation of assembly;
+* ``hessian_pattern(x) -> None``: a sparsity pattern (n*d, n*d) that holds this term's Hessian
+  at x and at the states near x, where the Hessian's own pattern changes from state to state
+  (contact: every coupling of the pairs within reach); None: the Hessian's own pattern. The
+  solver hands it to the linear solver as a hint (:meth:`hydrojam.fem.linsolve.LinearSolver.solve`);
+  no result depends on it;
 * ``fallback_projection = False``: True asks the solver to re-assemble this term's Hessian with
   ``project=True`` when the exact Hessian gives no descent, before damping the whole system;
 * ``name``: what the term is called in a problem ("elastic", "contact", "stabilisation",
@@ -69,6 +74,11 @@ class EnergyTerm(abc.ABC):
 
     def begin_step(self, x: np.ndarray) -> None:
         """Freeze lagged quantities at the start of a load step at positions x [mm]; none here."""
+        return None
+
+    def hessian_pattern(self, x: np.ndarray) -> sp.spmatrix | None:
+        """A sparsity pattern (n*d, n*d) holding the Hessian at x [mm] and near it; None: the
+        Hessian's own pattern, the same at every state."""
         return None
 
     def force_flux(self, x: np.ndarray, gradient: np.ndarray | None = None) -> np.ndarray:
@@ -209,6 +219,9 @@ class TimedTerm(EnergyTerm):
     def max_step(self, x, dx):
         return self._timed("max_step", x, dx)
 
+    def hessian_pattern(self, x):
+        return self._timed("hessian_pattern", x)
+
     def begin_step(self, x):
         return self._timed("begin_step", x)
 
@@ -252,6 +265,9 @@ class ScaledTerm(EnergyTerm):
 
     def max_step(self, x, dx):
         return self.term.max_step(x, dx)
+
+    def hessian_pattern(self, x):
+        return self.term.hessian_pattern(x)
 
     def begin_step(self, x):
         self.term.begin_step(x)
