@@ -27,10 +27,12 @@ Table 2 replays the sequence under PARDISO settings (iparm, 1-based): MKL's defa
 max ||x - x_default|| / ||x_default||: the settings change round-off, not the mathematics.
 
 Table 3 replays it with each new pattern ordered afresh and with the last ordering reused
-(``LinearSolver.reuse_ordering``, iparm(5) = 1), interleaved (every variant solves system i
-before any solves i + 1) and the faster of two passes kept: analyses, orderings computed,
-factorisations, the mean factor size and ms per solve. The ordering is reused for dense (3D)
-patterns only, so on a 2D design the two rows solve alike.
+(``LinearSolver.reuse_ordering``, iparm(5) = 1), each without and with the contact term's
+pattern within reach (``Contact.hessian_pattern``, recorded with every system and handed to
+the solve as it was in the simulation; ``LinearSolver.use_reach``), interleaved (every variant
+solves system i before any solves i + 1) and the faster of two passes kept: analyses, orderings
+computed, factorisations, the mean factor size and ms per solve. The ordering and the reach are
+used for dense (3D) patterns only, so on a 2D design the rows solve alike.
 
 Reading the numbers: the header prints the load average; other processes on the machine inflate
 the times (compare rows of one run, not runs). The solves, analyses, orderings and
@@ -82,18 +84,21 @@ def record(design_name: str, limit: int, save: str | None = None) -> list:
     if save:
         Path(save).mkdir(parents=True, exist_ok=True)
 
-    def solve(self, K, b):
+    def solve(self, K, b, reach=None):
         if len(systems) >= limit:
             raise _Enough
         K = sp.csr_matrix(K)
+        R = None if reach is None else reach()
+        R = None if R is None else sp.csr_matrix(R)
         if save:
             path = Path(save) / f"{len(systems):05d}.npz"
+            extra = {} if R is None else {"reach_indptr": R.indptr.astype(np.int64), "reach_indices": R.indices.astype(np.int32)}
             np.savez(path, data=K.data, indices=K.indices.astype(np.int32), indptr=K.indptr.astype(np.int64),
-                     b=np.asarray(b, dtype=float), shape=np.array(K.shape))
+                     b=np.asarray(b, dtype=float), shape=np.array(K.shape), **extra)
             systems.append(path)
         else:
-            systems.append((K.copy(), np.array(b, dtype=float)))
-        return original(self, K, b)
+            systems.append((K.copy(), np.array(b, dtype=float), R))
+        return original(self, K, b, None if R is None else (lambda: R))
 
     design = apply_overrides(default_design(), DESIGNS[design_name])
     linsolve.LinearSolver.solve = solve
@@ -113,11 +118,21 @@ def saved(folder: str) -> list[Path]:
 
 def system(item) -> tuple:
     """(K, b) of a recorded system: in memory, or a saved file read from disk."""
+    return recorded(item)[:2]
+
+
+def recorded(item) -> tuple:
+    """(K, b, reach) of a recorded system: reach the contact's pattern within reach handed to
+    the solve (``LinearSolver.solve``), None where there was none or it was recorded without."""
     if isinstance(item, tuple):
         return item
     with np.load(item) as z:
         n = int(z["shape"][0])
-        return sp.csr_matrix((z["data"], z["indices"], z["indptr"]), shape=(n, n)), z["b"]
+        reach = None
+        if "reach_indptr" in z.files:
+            ind = z["reach_indices"]
+            reach = sp.csr_matrix((np.ones(len(ind)), ind, z["reach_indptr"]), shape=(n, n))
+        return sp.csr_matrix((z["data"], z["indices"], z["indptr"]), shape=(n, n)), z["b"], reach
 
 
 def replay(systems, settings: dict[int, int]):
@@ -146,10 +161,10 @@ def replay(systems, settings: dict[int, int]):
     xs = []
     split = {True: [0.0, 0.0, 0], False: [0.0, 0.0, 0]}  # analysed -> [pardiso s, total s, count]
     for item in systems:
-        K, b = system(item)
+        K, b, R = recorded(item)
         before = solver.analyses
         t0 = time.perf_counter()
-        xs.append(solver.solve(K, b))
+        xs.append(solver.solve(K, b, None if R is None else (lambda: R)))
         total = time.perf_counter() - t0
         row = split[solver.analyses > before]
         row[0] += inner["t"]
@@ -164,8 +179,9 @@ def best_of_two(systems, settings):
 
 
 ORDERINGS = {
-    "each pattern ordered afresh": {"reuse_ordering": False},
-    "last ordering reused (hydrojam)": {},
+    "each pattern ordered afresh, no reach": {"reuse_ordering": False, "use_reach": False},
+    "last ordering reused, no reach": {"use_reach": False},
+    "last ordering reused, the reach (hydrojam)": {},
 }
 
 
@@ -184,11 +200,12 @@ def orderings(systems, passes: int = 2) -> list[list[str]]:
         fill = {name: [] for name in solvers}
         residual = dict.fromkeys(solvers, 0.0)
         for item in systems:
-            K, b = system(item)
+            K, b, R = recorded(item)
+            reach = None if R is None else (lambda: R)
             for name, solver in solvers.items():
                 before = solver.analyses
                 t0 = time.perf_counter()
-                x = solver.solve(K, b)
+                x = solver.solve(K, b, reach)
                 seconds[name] += time.perf_counter() - t0
                 if solver.analyses > before:
                     fill[name].append(solver._pardiso.factor_entries())
