@@ -393,3 +393,36 @@ def test_a_sparse_2d_pattern_ignores_the_reach():
     for K, b in seq:
         assert np.array_equal(a.solve(K, b, lambda: 1 / 0), b_.solve(K, b))
     assert a.analyses == b_.analyses and P.nnz
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+@pytest.mark.parametrize("perturbed", [0, 3])
+def test_a_dense_pattern_is_refined_only_after_perturbed_pivots(monkeypatch, perturbed):
+    """On dense patterns the solve skips PARDISO's forced refinement unless the factorisation
+    perturbed pivots (iparm(14), set here by the spy as a factorisation would); then the solve
+    is redone with the refinement (phase 33, iparm(8) as pardisoinit set it). Either way the
+    residual is within 10x of the forced refinement's, or of 1e-12 |b| (a backward-stable
+    solve's round-off on these well-conditioned matrices)."""
+    from hydrojam.fem.linsolve import _Pardiso
+
+    monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
+    phases = []
+    call = _Pardiso._call
+
+    def spy(self, phase, *args):
+        phases.append((phase, int(self._ps.iparm[7])))
+        x = call(self, phase, *args)
+        if phase in (13, 23):
+            self._ps.iparm[13] = perturbed
+        return x
+
+    monkeypatch.setattr(_Pardiso, "_call", spy)
+    K, b = _contact_sequence(seed=10, steps=1)[0]
+    x = LinearSolver("pardiso").solve(K, b)
+    assert phases == ([(13, 0)] if not perturbed else [(13, 0), (33, 2)])
+    monkeypatch.setattr(_Pardiso, "dense_refinement", True)
+    phases.clear()
+    y = LinearSolver("pardiso").solve(K, b)
+    assert phases == [(13, 2)]
+    rx, ry = np.linalg.norm(K @ x - b), np.linalg.norm(K @ y - b)
+    assert rx <= 10 * max(ry, 1e-12 * np.linalg.norm(b))
