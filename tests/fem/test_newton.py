@@ -27,3 +27,22 @@ def test_the_hessian_sum_has_the_values_and_entries_of_pythons_sum(count):
     assert np.array_equal(got.indptr, ref.indptr) and np.array_equal(got.indices, ref.indices)
     assert np.array_equal(got.data, ref.data)
     assert got is not mats[0]
+
+
+@pytest.mark.parametrize("sort", [True, False])
+def test_the_free_block_is_scipys_fancy_index(sort):
+    """The free DOFs' block of a matrix with stored zeros: the same entries, in the same order,
+    with the same values as SciPy's H[fidx][:, fidx] (rows with unsorted indices take SciPy's
+    route)."""
+    from hydrojam.fem.newton import _free_block
+
+    H = _random(80, 0.1, 3, zeros=7)
+    if not sort:  # every row's entries reversed: unsorted rows
+        order = np.concatenate([np.arange(a, b)[::-1] for a, b in zip(H.indptr[:-1], H.indptr[1:])])
+        H = sp.csr_matrix((H.data[order], H.indices[order], H.indptr), shape=H.shape)
+        assert not H.has_sorted_indices
+    fidx = np.flatnonzero(np.random.default_rng(4).random(80) < 0.7)
+    got, ref = _free_block(H, fidx), H[fidx][:, fidx]
+    assert got.shape == ref.shape
+    assert np.array_equal(got.indptr, ref.indptr) and np.array_equal(got.indices, ref.indices)
+    assert np.array_equal(got.data, ref.data)

@@ -197,3 +197,31 @@ def merge_upper(indptr, indices, uptr, uind):  # pragma: no cover - compiled
             m += 1
         ptr[i + 1] = m
     return ptr, ind[:m].copy()
+
+
+@numba.njit(cache=True)
+def free_block(indptr, indices, data, rows, position):  # pragma: no cover - compiled
+    """The block of a CSR matrix (rows sorted) on the rows ``rows`` (ascending) and on the columns
+    j with ``position[j] >= 0`` (their index in the block, ascending with j): (indptr, indices,
+    data) of the block, its rows sorted; what SciPy's ``A[rows][:, cols]`` gives, in one pass."""
+    nr = len(rows)
+    ptr = np.zeros(nr + 1, dtype=np.int64)
+    for i in range(nr):
+        r = rows[i]
+        c = 0
+        for k in range(indptr[r], indptr[r + 1]):
+            if position[indices[k]] >= 0:
+                c += 1
+        ptr[i + 1] = ptr[i] + c
+    ind = np.empty(ptr[nr], dtype=np.int32)
+    val = np.empty(ptr[nr])
+    for i in range(nr):
+        r = rows[i]
+        m = ptr[i]
+        for k in range(indptr[r], indptr[r + 1]):
+            p = position[indices[k]]
+            if p >= 0:
+                ind[m] = p
+                val[m] = data[k]
+                m += 1
+    return ptr, ind, val

@@ -191,6 +191,21 @@ def _sum_hessians(matrices) -> sp.csr_matrix:
     return total
 
 
+def _free_block(H, fidx: np.ndarray) -> sp.csr_matrix:
+    """H's block on the free DOFs ``fidx`` (ascending): SciPy's ``H[fidx][:, fidx]`` (the same
+    entries in the same order, so the same bits downstream) in one compiled pass instead of two
+    fancy-indexing passes over a 3D matrix's 1.5 M entries."""
+    H = sp.csr_matrix(H)
+    if not H.has_sorted_indices:
+        return H[fidx][:, fidx]
+    from hydrojam.fem import _kernels
+
+    position = np.full(H.shape[1], -1, dtype=np.int64)
+    position[fidx] = np.arange(len(fidx))
+    ptr, ind, val = _kernels.free_block(H.indptr, H.indices, H.data, fidx.astype(np.int64), position)
+    return sp.csr_matrix((val, ind, ptr), shape=(len(fidx), len(fidx)))
+
+
 def _reach(terms, xs, fidx):
     """The linear solver's hint (:meth:`LinearSolver.solve`'s ``reach``): a callable giving the
     free block of the terms' Hessian patterns near xs, made only when asked (None where no term
@@ -198,7 +213,7 @@ def _reach(terms, xs, fidx):
 
     def reach():
         patterns = [p for t in terms if (p := t.hessian_pattern(xs)) is not None]
-        return sp.csr_matrix(sum(patterns))[fidx][:, fidx] if patterns else None
+        return _free_block(sum(patterns), fidx) if patterns else None
 
     return reach
 
@@ -230,7 +245,7 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
             # is what makes a contact Hessian indefinite: project it per contact, as IPC does,
             # before damping the whole system (about 15% fewer iterations on a one-particle actuator)
             H = _sum_hessians(t.hessian(xs, True) if t.fallback_projection else h for t, h in zip(terms, hessians))
-            Hff = sp.csr_matrix(H)[fidx][:, fidx]
+            Hff = _free_block(H, fidx)
             tau = lm
         K = Hff + sp.diags(tau * hdiag + eps, format="csr")
         try:
@@ -308,7 +323,7 @@ def negative_curvature(
     fidx = np.flatnonzero(free)
     if fidx.size == 0:
         return 0
-    Hff = sp.csr_matrix(_sum_hessians(t.hessian(xs, False) for t in terms))[fidx][:, fidx]
+    Hff = _free_block(_sum_hessians(t.hessian(xs, False) for t in terms), fidx)
     hdiag = abs(Hff.diagonal())
     K = Hff + sp.diags(np.full(len(fidx), options.regularisation * hdiag.mean()), format="csr")
     try:
@@ -359,7 +374,7 @@ def minimize(
             break
         t0 = time.perf_counter()
         hessians = [t.hessian(xs, options.projection == "always") for t in terms]
-        Hff = sp.csr_matrix(_sum_hessians(hessians))[fidx][:, fidx]
+        Hff = _free_block(_sum_hessians(hessians), fidx)
         tm.assembly += time.perf_counter() - t0
         t0 = time.perf_counter()
         hdiag = abs(Hff.diagonal())
