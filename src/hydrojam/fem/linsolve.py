@@ -62,11 +62,10 @@ class _Pardiso:
     dense_refinement: bool = False
     """Whether PARDISO's forced refinement (iparm(8), two steps from pardisoinit) runs on dense
     patterns after every solve. False: only after a factorisation that perturbed pivots
-    (iparm(14) > 0), when the solve is redone with it; without perturbed pivots the factor is
-    exact to round-off and the two steps changed no residual measurably (max ||Kx - b||/||b||
-    8e-13 with, 8e-13 without, over 30 recorded 3D systems) for 18 ms of a 136 ms solve
-    (docs/solver.md, "3D: ordering, threads"). 2D patterns keep the forced refinement, and their
-    bits."""
+    (iparm(14) > 0), when the solve is redone with it: without perturbed pivots the factor is
+    exact to round-off, and the two steps changed no residual measurably for a seventh of a 3D
+    solve (docs/solver.md, "A changing contact pattern in 3D"). 2D patterns keep the forced
+    refinement, and their bits."""
 
     _mkl_rt: str | None = None
     """Path of the MKL runtime found by the first handle: later handles skip pypardiso's search

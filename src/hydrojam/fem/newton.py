@@ -180,7 +180,7 @@ def _sum_hessians(matrices) -> sp.csr_matrix:
     ``sum`` (0 + H1 + H2 + ...), without its passes that change nothing: the copy that 0 + H1
     makes, and the addition of a matrix with only zero values after the first addition (a
     stabilisation at scale 0; x + 0.0 == x, and SciPy's addition drops the entries that sum to
-    zero, which the first addition has dropped already). A 3D matrix's pass is about 7 ms."""
+    zero, which the first addition has dropped already)."""
     matrices = list(matrices)
     if len(matrices) == 1:
         return sp.csr_matrix(matrices[0]).copy()
@@ -194,7 +194,7 @@ def _sum_hessians(matrices) -> sp.csr_matrix:
 def _free_block(H, fidx: np.ndarray) -> sp.csr_matrix:
     """H's block on the free DOFs ``fidx`` (ascending): SciPy's ``H[fidx][:, fidx]`` (the same
     entries in the same order, so the same bits downstream) in one compiled pass instead of two
-    fancy-indexing passes over a 3D matrix's 1.5 M entries."""
+    fancy-indexing passes."""
     H = sp.csr_matrix(H)
     if not H.has_sorted_indices:
         return H[fidx][:, fidx]
