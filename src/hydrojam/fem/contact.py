@@ -334,15 +334,13 @@ class Contact(EnergyTerm):
                 (a, b), (e, f) = E[c.edge0_id], E[c.edge1_id]
                 if ee(V[a], V[b], V[e], V[f]) < limit:
                     kept.append((a, b, e, f))
-        d, n = self.dim, self.X.size
+        d = self.dim
         stencils = np.array(kept, dtype=np.int64).reshape(-1, d + 1)
         m, nv = stencils.shape[1], self._cm.num_vertices
         vi, vj = np.repeat(stencils, m, axis=1).ravel(), np.tile(stencils, (1, m)).ravel()
-        pairs = sp.coo_matrix((np.ones(len(vi)), (vi, vj)), shape=(nv, nv)).tocsr().tocoo()  # unique
-        rows = (self.vertex_ids[pairs.row] * d)[:, None, None] + np.arange(d)[None, :, None]
-        cols = (self.vertex_ids[pairs.col] * d)[:, None, None] + np.arange(d)[None, None, :]
-        rows, cols = np.broadcast_arrays(rows, cols)
-        P = sp.csr_matrix((np.ones(rows.size), (rows.ravel(), cols.ravel())), shape=(n, n))
+        pairs = sp.csr_matrix((np.ones(len(vi)), (vi, vj)), shape=(nv, nv))
+        # vertex pairs -> their d x d DOF blocks (dof = vertex d + component), then to full DOFs
+        P = sp.csr_matrix(self._cm.to_full_dof(sp.kron(pairs, np.ones((d, d)), format="csc")))
         P.data[:] = 1.0
         return P
 

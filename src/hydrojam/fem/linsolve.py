@@ -59,6 +59,11 @@ class _Pardiso:
     """Upper-triangle entries a row above which a pattern counts as dense: tet10 meshes lie
     above it, tri6 meshes below."""
 
+    @classmethod
+    def is_dense(cls, upper_entries: int, n: int) -> bool:
+        """Whether a pattern of ``upper_entries`` upper-triangle entries on n rows is dense (3D)."""
+        return upper_entries > cls.dense_row * n
+
     dense_refinement: bool = False
     """Whether PARDISO's forced refinement (iparm(8), two steps from pardisoinit) runs on dense
     patterns after every solve. False: only after a factorisation that perturbed pivots
@@ -120,7 +125,7 @@ class _Pardiso:
             raise ValueError(f"right-hand side of shape {b.shape} for a matrix of {n} rows")
         b = np.ascontiguousarray(b, dtype=np.float64)
         if not reuse_analysis:
-            self._dense = len(ja) > self.dense_row * n
+            self._dense = self.is_dense(len(ja), n)
             if 2 in self.settings:
                 ps.iparm[1] = self.dense_ordering if self._dense else self.settings[2]
             if ordering is not None:
@@ -189,14 +194,14 @@ class _UpperPattern:
     PARDISO, ``key`` identifying it (the analysis is reused while it stays) and whether some row
     is empty (PARDISO would crash)."""
 
-    def __init__(self, indptr: np.ndarray, indices: np.ndarray):
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray, hinted: bool = False):
         self.n, self.nnz = len(indptr) - 1, len(indices)
         self.indptr = np.ascontiguousarray(indptr, dtype=np.int64)
         self.indices = np.ascontiguousarray(indices, dtype=np.int64)
         self.ia = (self.indptr + 1).astype(np.int32)
         self.ja = (self.indices + 1).astype(np.int32)
         self.empty_row = not np.diff(indptr).all()
-        self.hinted = False
+        self.hinted = hinted
         """Whether it holds a reach pattern (:meth:`LinearSolver.solve`): kept until a matrix
         leaves it, however little of it the matrices fill."""
         self.key = (self.n, hash(self.ia.tobytes()), hash(self.ja.tobytes()))
@@ -302,7 +307,7 @@ class LinearSolver:
         reuse = pattern.key == self._analysed and self.reuse_analysis
         self.analyses += not reuse
         ordering = None
-        keep = self.reuse_ordering and pattern.nnz > _Pardiso.dense_row * pattern.n
+        keep = self.reuse_ordering and _Pardiso.is_dense(pattern.nnz, pattern.n)
         if not reuse and self._restored_ordering is not None and pattern is self._restored_ordering[0]:
             ordering = self._restored_ordering[1]  # the analysis the restored solver had made
         elif not reuse and keep and self._ordering is not None and len(self._ordering) == pattern.n:
@@ -363,7 +368,8 @@ class LinearSolver:
         if g.pattern is None or g.pattern is not u:
             k = _kernels()
             pos, hint = None, None
-            dense = len(K.indices) > 2 * _Pardiso.dense_row * K.shape[0]  # as reuse_ordering: 3D only
+            n = K.shape[0]
+            dense = _Pardiso.is_dense((len(K.indices) + n) // 2, n)  # K's upper entries, a full diagonal
             reach = reach if self.reuse_analysis and self.use_reach and dense else None
             if self.reuse_analysis and u is not None and u.n == K.shape[0]:
                 pos, missing = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
@@ -379,7 +385,6 @@ class LinearSolver:
             elif reach is not None:
                 hint = reach()
             if pos is None:
-                n = K.shape[0]
                 base = (np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64))
                 if hint is not None:
                     R = sp.csr_matrix(hint, dtype=np.float64)
@@ -387,8 +392,7 @@ class LinearSolver:
                         raise ValueError(f"a reach pattern of shape {R.shape} for a matrix of shape {K.shape}")
                     R.sum_duplicates()  # canonical: sorted rows
                     base = k.merge_upper(R.indptr, R.indices.astype(np.int64), *base)
-                u = _UpperPattern(*k.merge_upper(K.indptr, K.indices, *base))
-                u.hinted = hint is not None
+                u = _UpperPattern(*k.merge_upper(K.indptr, K.indices, *base), hinted=hint is not None)
                 pos, _ = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
             g.src = np.flatnonzero(pos >= 0)
             self._union, g.pattern, g.dst = u, u, pos[g.src]
