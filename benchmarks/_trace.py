@@ -85,9 +85,9 @@ class IterationTrace:
             self.rows.append({k: row.get(k, "") for k in FIELDS})
             return update(lm, alpha, options)
 
-        def traced_solve(solver, K, b):
+        def traced_solve(solver, K, b, reach=None):
             before = solver.analyses
-            out = solve(solver, K, b)
+            out = solve(solver, K, b, reach)
             row["analysis"] = row.get("analysis", 0) + (solver.analyses - before)
             return out
 
