@@ -7,6 +7,12 @@ walls of a trough, so it can only thicken. The load-path solver brings it to pur
 material-point answer of `constrained_swelling` with both in-plane stretches held at lambda0
 (Hong, Liu & Suo 2009).
 
+Swollen this far, the homogeneous layer is an unstable equilibrium: a layer bonded to a rigid
+substrate wrinkles at its free surface once it has swollen enough, and the path's stability
+check finds negative eigenvalues there. The comparison is with the homogeneous branch, so the
+path keeps it (``settle="never"``) instead of moving the state off it; the wrinkled layer would
+fold into itself, and this example has no self-contact.
+
     python examples/gel_layer_on_substrate.py [OUT_DIR]      # writes OUT_DIR/gel_layer.csv
 """
 
@@ -15,7 +21,7 @@ import sys
 from pathlib import Path
 
 from hydrojam import Hydrogel, HydrogelParams, constrained_swelling
-from hydrojam.fem import Block, Problem, Solid, element_for_meshio_type, fixed, rectangle, solve_path
+from hydrojam.fem import Block, PathOptions, Problem, Solid, element_for_meshio_type, fixed, rectangle, solve_path
 
 T_WATER = 275.0  # K
 WIDTH, THICKNESS, MESH_SIZE = 4.0, 1.0, 0.3  # mm
@@ -33,7 +39,7 @@ def main(out: Path) -> int:
 
     g = mesh.group_nodes
     bcs = [fixed(g("bottom"), 2), fixed(g("left"), 2, [0]), fixed(g("right"), 2, [0])]
-    result = solve_path(Problem(mesh.points, terms, bcs, force_scale=gel.shear_modulus_ref))
+    result = solve_path(Problem(mesh.points, terms, bcs, force_scale=gel.shear_modulus_ref), PathOptions(settle="never"))
 
     fe = float(result.x[g("top"), 1].mean()) / THICKNESS  # from the as-prepared state
     exact = constrained_swelling(p, 0.0, T_WATER, held=(p.lambda0, p.lambda0)).stretch / p.lambda0
@@ -44,6 +50,7 @@ def main(out: Path) -> int:
     print(f"thickness stretch, finite elements: {fe:.8f}")
     print(f"thickness stretch, analytic:        {exact:.8f}")
     print(f"relative error:                     {rel_error:.2e}")
+    print(f"negative eigenvalues of the swollen homogeneous state: {result.history[-1].negative_eigenvalues}")
     with open(out / "gel_layer.csv", "w", newline="") as f:
         csv.writer(f).writerows([["quantity", "value"], ["fe_thickness_stretch", fe],
                                  ["analytic_thickness_stretch", exact], ["relative_error", rel_error],

@@ -74,7 +74,7 @@ def _check_gel_layer(stdout: str, out: Path) -> None:
     error is the solver's: it stops at a residual below rtol = 1e-6 of the forces in play. The
     strain error is that residual over the tangent stiffness; the forces in play (the network
     and mixing stresses, which balance) are O(10) times the swollen gel's tangent modulus, so
-    the relative error is O(1e-5); 1e-3 bounds it on any machine (measured 8e-10)."""
+    the relative error is O(1e-5); 1e-3 bounds it on any machine."""
     assert _number(r"relative error:\s+([\d.e+-]+)", stdout) < 1e-3
     fe = _number(r"finite elements:\s+([\d.]+)", stdout)
     assert fe == pytest.approx(3.45, abs=0.005)  # README: thickness x 3.45

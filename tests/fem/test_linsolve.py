@@ -20,6 +20,24 @@ def test_solves_a_symmetric_indefinite_system(method):
 
 
 @pytest.mark.parametrize("method", METHODS)
+def test_resolve_reuses_the_last_matrix_for_new_right_hand_sides(method):
+    """After a solve, ``resolve`` solves the same indefinite matrix for other right-hand sides (a
+    preconditioner's use), to a backward-stable solve's round-off (100 eps cond(K) in the
+    solution); before any solve it refuses."""
+    solver = LinearSolver(method)
+    with pytest.raises(ValueError, match="nothing factorised"):
+        solver.resolve(np.ones(3))
+    K = np.array([[2.0, 1.0, 0.0], [1.0, -3.0, 1.0], [0.0, 1.0, 4.0]])
+    solver.solve(sp.csr_matrix(K), np.ones(3))
+    bound = 100 * np.finfo(float).eps * np.linalg.cond(K)
+    for b in (np.array([1.0, 0.0, 0.0]), np.array([-2.0, 5.0, 1.0])):
+        x, ref = solver.resolve(b), np.linalg.solve(K, b)
+        assert np.linalg.norm(x - ref) <= bound * np.linalg.norm(ref)
+    with pytest.raises(ValueError, match="shape"):
+        solver.resolve(np.ones(4))
+
+
+@pytest.mark.parametrize("method", METHODS)
 def test_a_structurally_singular_matrix_is_a_linear_solve_error(method):
     """A row with no entry at all (PARDISO would crash on it)."""
     K = sp.csr_matrix(np.array([[1.0, 0.0], [0.0, 0.0]]))

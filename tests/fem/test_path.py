@@ -291,3 +291,65 @@ def test_a_saddle_is_settled_to_the_analytic_minimum_with_a_full_newton_finish()
                          dataclasses.replace(options.newton, projection="always", max_iter=400), LinearSolver())
     assert projected.converged and abs(abs(projected.x[0, 0]) - 1.0) <= projected.residual / 2.0 * 1.5
     assert out.iterations < projected.iterations
+
+
+class Well(EnergyTerm):
+    """``k |x - x0|^2 / 2`` [mJ] over the DOFs of ``mask``: a convex well (curvature k)."""
+
+    name = "well"
+
+    def __init__(self, x0, mask, k=1.0):
+        self.x0, self.mask, self.k = np.asarray(x0, dtype=float), np.asarray(mask, dtype=float), k
+
+    def energy(self, x):
+        return 0.5 * self.k * float(np.sum(self.mask * (x - self.x0) ** 2))
+
+    def gradient(self, x):
+        return (self.k * self.mask * (x - self.x0)).ravel()
+
+    def hessian(self, x, project=False):
+        return sp.diags(self.k * self.mask.ravel(), format="csr")
+
+
+def _saddle_in_many_dofs(n=60):
+    """DOF 0: the Piece saddle u = 0 (curvature -1; minima u = +-1); DOFs 1 .. n-1: convex wells
+    of curvatures 0.5 .. 5 at their minima; the last DOF held."""
+    x = np.linspace(0.0, 1.0, n).reshape(-1, 1)
+    x[0, 0] = 0.0
+    mask = np.ones_like(x)
+    mask[0] = 0.0
+    k = np.linspace(0.5, 5.0, n).reshape(-1, 1)
+    terms = [Piece("concave", a=1.0), Piece("quartic", c=1.0), Well(x.copy(), mask * k)]
+    free = np.ones(n, dtype=bool)
+    free[-1] = False
+    return terms, x, free
+
+
+def test_the_lowest_mode_of_a_saddle_is_its_unstable_direction():
+    """LOBPCG (60 free DOFs, preconditioned by the projected Hessian) finds the eigenvalue -1 of
+    the saddle's DOF and its mode, within its residual tolerance over the gap to the next
+    eigenvalue (0.5), and scales the mode to a largest nodal move of 1."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.newton import lowest_mode
+
+    terms, x, free = _saddle_in_many_dofs()
+    value, mode = lowest_mode(terms, x, free, LinearSolver())
+    mean_diag = np.mean(np.r_[1.0, np.linspace(0.5, 5.0, 60)[1:-1]])  # |diag H| over the free DOFs
+    r = 1e-5 * mean_diag  # lowest_mode's residual norm bound (_MODE_TOLERANCE x mean|diag H|)
+    assert abs(value - (-1.0)) <= r**2 / 1.5 + 1e-9 * mean_diag  # Rayleigh quotient: second order, + the shift
+    assert abs(abs(mode[0, 0]) - 1.0) <= r / 1.5 and np.abs(mode[1:]).max() <= r / 1.5
+    assert mode[-1, 0] == 0.0
+
+
+def test_a_saddle_among_many_dofs_is_settled_along_its_mode():
+    """From the saddle, ``settle`` moves along the mode and reaches the minimum u = +-1 (within the
+    residual over the curvature 2), the wells' DOFs where they were (within the residual over
+    their curvature), reported stable."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.path import settle
+
+    terms, x, free = _saddle_in_many_dofs()
+    out = settle(terms, x, free, 1.0, PathOptions(), LinearSolver(), LinearSolver())
+    assert out.negative == 0 and out.residual <= out.tolerance
+    assert abs(abs(out.x[0, 0]) - 1.0) <= out.residual / 2.0 * 1.5
+    assert np.abs(out.x[1:] - x[1:]).max() <= out.residual / 0.5 * 1.5

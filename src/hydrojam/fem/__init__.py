@@ -14,10 +14,13 @@ The names below are the public API; each lives in the module of its concept
 Examples
 --------
 A plane-strain gel layer bonded to a rigid substrate, swelling from its as-prepared state into
-water at 275 K, thickens 3.45x (the analytic constrained swelling):
+water at 275 K, thickens 3.45x (the analytic constrained swelling). Swollen this far, the
+homogeneous layer is an unstable equilibrium (its free surface would wrinkle): the path's
+stability check counts the negative eigenvalues, and ``settle="never"`` keeps the homogeneous
+branch instead of moving off it:
 
 >>> from hydrojam import Hydrogel, HydrogelParams
->>> from hydrojam.fem import Block, Problem, Solid, element_for_meshio_type, fixed, rectangle, solve_path
+>>> from hydrojam.fem import Block, PathOptions, Problem, Solid, element_for_meshio_type, fixed, rectangle, solve_path
 >>> p = HydrogelParams(); gel = Hydrogel(p)
 >>> mesh = rectangle(4.0, 1.0, 0.5, order=2)          # mm, quadratic triangles
 >>> solid = Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), gel, "gel")])
@@ -25,9 +28,10 @@ water at 275 K, thickens 3.45x (the analytic constrained swelling):
 ...     return [solid.with_materials({"gel": gel.at(p.mu0 * (1 - s), p.T0 + s * (275.0 - p.T0))})]
 >>> g = mesh.group_nodes
 >>> bcs = [fixed(g("bottom"), 2), fixed(g("left"), 2, [0]), fixed(g("right"), 2, [0])]
->>> result = solve_path(Problem(mesh.points, terms, bcs, force_scale=gel.shear_modulus_ref))
->>> result.converged
-True
+>>> problem = Problem(mesh.points, terms, bcs, force_scale=gel.shear_modulus_ref)
+>>> result = solve_path(problem, PathOptions(settle="never"))
+>>> result.converged, result.history[-1].negative_eigenvalues > 0
+(True, True)
 >>> round(float(result.x[g("top"), 1].mean()), 2)    # the layer's thickness [mm]
 3.45
 """

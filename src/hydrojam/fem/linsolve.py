@@ -106,6 +106,7 @@ class _Pardiso:
             self._ps.iparm[i - 1] = value
         self._refinement = int(self._ps.iparm[7])  # iparm(8): pardisoinit's, or the settings'
         self._dense = False  # whether the pattern last analysed is dense
+        self._factorised: tuple | None = None  # (data, ia, ja) of the last factorisation
         setter = getattr(self._ps.libmkl, "MKL_Set_Num_Threads", None)
         if setter is not None:
             setter(ctypes.c_int(threads))
@@ -143,12 +144,24 @@ class _Pardiso:
             ps.iparm[17] = -1  # iparm(18) < 0: report the factor's entries (overwritten by each report)
         refine_later = self._dense and not self.dense_refinement
         ps.iparm[7] = 0 if refine_later else self._refinement
+        self._factorised = None
         x = self._call(23 if reuse_analysis else 13, data, ia, ja, b)
         ps.iparm[4] = 0  # the numerical phases of later calls ignore perm either way
         if refine_later and self._refinement and ps.iparm[13] > 0:  # perturbed pivots: refine
             ps.iparm[7] = self._refinement
             x = self._call(33, data, ia, ja, b)
+        self._factorised = (data, ia, ja)
         return x
+
+    def resolve(self, b: np.ndarray) -> np.ndarray:
+        """Solution for another right-hand side b (n,) with the last factorisation (phase 33: the
+        substitution only)."""
+        if self._factorised is None:
+            raise ValueError("nothing factorised to solve with")
+        data, ia, ja = self._factorised
+        if b.shape != (len(ia) - 1,):
+            raise ValueError(f"right-hand side of shape {b.shape} for a matrix of {len(ia) - 1} rows")
+        return self._call(33, data, ia, ja, np.ascontiguousarray(b, dtype=np.float64))
 
     def _call(self, phase: int, data: np.ndarray, ia: np.ndarray, ja: np.ndarray, b: np.ndarray) -> np.ndarray:
         """PARDISO's ``phase`` on this handle: the solution x (phases with a solve)."""
@@ -177,6 +190,7 @@ class _Pardiso:
 
     def release(self) -> None:
         """Free all of MKL's memory for this handle (before analysing a new pattern)."""
+        self._factorised = None
         self._ps.free_memory(everything=True)
 
     def negative_eigenvalues(self) -> int:
@@ -286,6 +300,7 @@ class LinearSolver:
         self._ordering: np.ndarray | None = None
         self._ordered_fill_of = (0, 1)  # factor and matrix entries of the analysis that computed it
         self._restored_ordering: tuple[_UpperPattern, np.ndarray] | None = None  # (restored union, its ordering)
+        self._scipy_matrix: sp.csr_matrix | None = None  # the last matrix SciPy solved
         self.threads = positive_int("HYDROJAM_SOLVER_THREADS", 1)
         self.reuse_analysis = flag("HYDROJAM_REUSE_ANALYSIS", True)
 
@@ -332,12 +347,15 @@ class LinearSolver:
 
     def _solve_scipy(self, K: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         self.negative_eigenvalues = None
+        self._scipy_matrix = None
         with warnings.catch_warnings():
             warnings.simplefilter("error", spla.MatrixRankWarning)
             try:
-                return spla.spsolve(K.tocsc(), b)
+                x = spla.spsolve(K.tocsc(), b)
             except (spla.MatrixRankWarning, RuntimeError) as exc:  # SuperLU: singular factor
                 raise LinearSolveError(f"scipy: {exc}") from exc
+        self._scipy_matrix = K
+        return x
 
     def _gather(self, K: sp.csr_matrix) -> _Gather:
         """The upper-triangle gather of K's sparsity pattern: the last few patterns are kept, as
@@ -483,6 +501,46 @@ class LinearSolver:
         finally:
             self.seconds += time.perf_counter() - t0
             self.calls += 1
+        if not np.all(np.isfinite(x)):
+            raise LinearSolveError(f"{self.method}: solution is not finite (singular matrix?)")
+        return x
+
+    def resolve(self, b: np.ndarray) -> np.ndarray:
+        """Solution u of K u = b for the matrix K of the last successful :meth:`solve`, reusing its
+        factorisation (PARDISO's substitution alone; SciPy solves again): many right-hand sides for
+        one matrix, as a preconditioner needs.
+
+        Parameters
+        ----------
+        b : ndarray, shape (n,)
+
+        Returns
+        -------
+        ndarray, shape (n,)
+
+        Raises
+        ------
+        ValueError
+            If nothing was factorised (no solve yet, or the last one failed) or b has the wrong shape.
+        LinearSolveError
+            If u is not finite.
+        """
+        t0 = time.perf_counter()
+        b = np.asarray(b, dtype=np.float64)
+        try:
+            if self.method == "pardiso":
+                if self._pardiso is None:
+                    raise ValueError("nothing factorised to solve with")
+                x = self._pardiso.resolve(b)
+            else:
+                if self._scipy_matrix is None:
+                    raise ValueError("nothing factorised to solve with")
+                n = self._scipy_matrix.shape[0]
+                if b.shape != (n,):
+                    raise ValueError(f"right-hand side of shape {b.shape} for a matrix of {n} rows")
+                x = self._solve_scipy(self._scipy_matrix, b)
+        finally:
+            self.seconds += time.perf_counter() - t0
         if not np.all(np.isfinite(x)):
             raise LinearSolveError(f"{self.method}: solution is not finite (singular matrix?)")
         return x

@@ -22,16 +22,20 @@ from __future__ import annotations
 
 import enum
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
 from hydrojam.fem.terms import EnergyTerm
 
 _TINY = 1e-300  # keeps the scaled gradient step finite when the Hessian's diagonal is all zero
+_MODE_SHIFT = 1e-6  # x mean|diag H|: makes lowest_mode's projected preconditioner definite (speed only)
+_MODE_TOLERANCE = 1e-5  # x mean|diag H|: lowest_mode's LOBPCG residual norm (a direction, not a spectrum)
 
 
 @dataclass(frozen=True)
@@ -331,6 +335,78 @@ def negative_curvature(
     except LinearSolveError:
         return None
     return solver.negative_eigenvalues
+
+
+def lowest_mode(
+    terms: Sequence[EnergyTerm],
+    x: np.ndarray,
+    free: np.ndarray,
+    solver: LinearSolver,
+    options: NewtonOptions = NewtonOptions(),
+    max_iter: int = 200,
+) -> tuple[float, np.ndarray]:
+    """The lowest eigenvalue of the unprojected Hessian of ``terms`` over the free DOFs at x and
+    its mode: an unstable equilibrium's direction of steepest fall.
+
+    LOBPCG (SciPy) on H_ff, preconditioned by one factorisation of the PSD-projected Hessian
+    (every element and contact Hessian projected, as in IPC) shifted by ``_MODE_SHIFT`` x
+    mean|diag H_ff|: the projection keeps the stiff part of the spectrum that makes plain Lanczos
+    slow, and each iteration costs one substitution. A block of three vectors from a seeded
+    start; a dense eigensolver where the free DOFs are too few for LOBPCG.
+
+    Parameters
+    ----------
+    terms : sequence of EnergyTerm
+        The energy (physics only: leave a stabilisation out).
+    x : ndarray, shape (n, d)
+        Positions [mm].
+    free : ndarray of bool, shape (n*d,)
+        Free DOFs.
+    solver : LinearSolver
+        Factorises the preconditioner (its last factorisation is replaced).
+    options : NewtonOptions, optional
+        Its ``regularisation`` shifts H_ff as the Newton solve does.
+    max_iter : int, optional
+        LOBPCG iterations at most.
+
+    Returns
+    -------
+    eigenvalue : float
+        The lowest eigenvalue found [N/mm; N/mm^2 per unit thickness in 2D]: negative at an
+        unstable state (an upper bound of the true lowest, as every Rayleigh quotient is).
+    mode : ndarray, shape (n, d)
+        Its eigenvector, zero on fixed DOFs, scaled so that the largest nodal move is 1 [mm].
+    """
+    xs = np.asarray(x, dtype=float)
+    fidx = np.flatnonzero(free)
+    H = _free_block(_sum_hessians(t.hessian(xs, False) for t in terms), fidx)
+    hdiag = abs(H.diagonal())
+    H = H + sp.diags(np.full(len(fidx), options.regularisation * hdiag.mean()), format="csr")
+    block = 3
+    if len(fidx) <= 5 * block:  # LOBPCG itself falls back to a dense solver there
+        w, V = np.linalg.eigh(H.toarray())
+        value, vec = float(w[0]), V[:, 0]
+    else:
+        P = _free_block(_sum_hessians(t.hessian(xs, True) for t in terms), fidx)
+        P = P + sp.diags(np.full(len(fidx), _MODE_SHIFT * hdiag.mean()), format="csr")
+        solver.solve(P, np.ones(len(fidx)))
+
+        def precondition(R):
+            R = np.asarray(R)
+            return solver.resolve(R) if R.ndim == 1 else np.column_stack([solver.resolve(c) for c in R.T])
+
+        M = spla.LinearOperator(H.shape, matvec=precondition, matmat=precondition, dtype=float)
+        start = np.random.default_rng(0).standard_normal((len(fidx), block))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "not reaching the requested tolerance"
+            w, V = spla.lobpcg(H, start, M=M, largest=False, tol=_MODE_TOLERANCE * hdiag.mean(),
+                               maxiter=max_iter)
+        k = int(np.argmin(w))
+        value, vec = float(w[k]), V[:, k]
+    mode = np.zeros(xs.size)
+    mode[fidx] = vec
+    mode = mode.reshape(xs.shape)
+    return value, mode / max(float(np.linalg.norm(mode, axis=1).max()), _TINY)
 
 
 def minimize(

@@ -12,8 +12,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
-from hydrojam.fem.newton import (NewtonOptions, NewtonResult, NewtonStatus, Timings, minimize, negative_curvature,
-                                 sum_energy)
+from hydrojam.fem.newton import (NewtonOptions, NewtonResult, NewtonStatus, Timings, lowest_mode, minimize,
+                                 negative_curvature, sum_energy)
 from hydrojam.fem.problem import Problem
 
 
@@ -87,12 +87,8 @@ class PathOptions:
     stationary point) is moved off it to a stable one (:func:`settle`): "final" (the end of the
     path), "every" (every accepted state) or "never"."""
     settle_perturbation: float = 1e-5
-    """Size of the seeded random nudge off a saddle, relative to the reference's bounding box
-    diagonal (grown 10x for each further try, three tries)."""
-    settle_escape: float = 1e3
-    """The projected descent off a saddle stops at this x the Newton tolerance, and the full
-    Newton (``newton.projection``) converges from there: projected Hessians converge only
-    linearly, and an energy descent that has left the saddle's energy cannot return to it."""
+    """The first move along an unstable state's mode, as the largest nodal move relative to the
+    reference's bounding box diagonal (doubled while the energy falls, :func:`settle`)."""
     damped_term: str = "stabilisation"
     """Name of the term whose ``scale`` (a viscous stabilisation's) the adaptive damping sets."""
     damping_growth: float = 10.0
@@ -426,40 +422,59 @@ class Settled:
     timings: Timings
 
 
+def _down_the_mode(terms, x: np.ndarray, mode: np.ndarray, first: float, longest: float) -> np.ndarray | None:
+    """The lowest-energy state of x + a mode (x (n, d) [mm]; mode (n, d), largest nodal move 1)
+    over a = ``first`` x 2^k <= ``longest`` [mm], the mode's sign taken downhill (g . mode <= 0),
+    up to the bottom of its well or the step cap of the terms (contact CCD): every trial
+    collision-free and admissible. None where no trial lowers the energy."""
+    g = sum(t.gradient(x) for t in terms).ravel()
+    step = (-mode if g @ mode.ravel() > 0 else mode) * longest
+    cap = min([1.0] + [t.max_step(x, step) for t in terms])
+    E0 = sum_energy(terms, x)
+    best, E_best = None, E0
+    a = first / longest
+    while a <= cap:
+        E = sum_energy(terms, x + a * step)
+        if not np.isfinite(E):
+            break
+        if E < E_best:
+            best, E_best = a, E
+        elif best is not None:  # past the bottom of the well
+            break
+        a *= 2.0
+    return None if best is None else x + best * step
+
+
 def settle(terms, x: np.ndarray, free: np.ndarray, force_scale: float, options: "PathOptions",
            solver: LinearSolver, checker: LinearSolver, tries: int = 3) -> Settled:
-    """Move an unstable equilibrium x (n, d) [mm] of ``terms`` (the physics) off its saddle: nudge
-    the free DOFs by a seeded random vector of ``options.settle_perturbation`` x the bounding box
-    diagonal, minimise with every element and contact Hessian projected to positive
-    semi-definite (``projection="always"``, a descent that a saddle does not attract) to
-    ``options.settle_escape`` x the tolerance, then converge with the full Newton, up to
-    ``tries`` times with a 10x larger nudge each; the result is the first stable state reached,
-    or x itself with its count where none was."""
+    """Move an unstable equilibrium x (n, d) [mm] of ``terms`` (the physics) off its saddle, along
+    its unstable mode: the Hessian's lowest eigenpair (:func:`~hydrojam.fem.newton.lowest_mode`),
+    followed downhill from a largest nodal move of ``options.settle_perturbation`` x the bounding
+    box diagonal, doubled while the energy falls (:func:`_down_the_mode`), then the full Newton
+    from the lowest state on it. Below the saddle's energy the monotone descent cannot come back
+    to it. Up to ``tries`` times, from each unstable equilibrium reached; the result is the first
+    stable state, or x itself with its count where none was reached."""
     xs = np.asarray(x, dtype=float)
     size = float(np.linalg.norm(xs.max(axis=0) - xs.min(axis=0)))
-    escape = dataclasses.replace(options.newton, projection="always",
-                                 rtol=options.newton.rtol * options.settle_escape)
-    mask = free.reshape(xs.shape)
-    rng = np.random.default_rng(0)
     spent, its = Timings(), 0
-    negative = None
-    for k in range(tries):
-        nudge = options.settle_perturbation * 10.0 ** k * size * rng.standard_normal(xs.shape) * mask
-        if not _safe_move(terms, xs, nudge):
-            continue
-        res = minimize(terms, xs + nudge, free, force_scale, escape, solver)
+    negative, current = None, xs
+    for _ in range(tries):
+        value, mode = lowest_mode(terms, current, free, checker, options.newton)
+        if not value < 0:
+            break
+        start = _down_the_mode(terms, current, mode, options.settle_perturbation * size, size)
+        if start is None:
+            break
+        res = minimize(terms, start, free, force_scale, options.newton, solver)
         spent.add(res.timings)
         its += res.iterations
-        if res.converged:
-            res = minimize(terms, res.x, free, force_scale, options.newton, solver)
-            spent.add(res.timings)
-            its += res.iterations
         if not res.converged:
-            continue
+            break
         negative = negative_curvature(terms, res.x, free, checker, options.newton)
         if negative == 0:
             r, tol = physical_residual(terms, res.x, free, force_scale, options.newton, ())
             return Settled(res.x, 0, its, r, tol, spent)
+        current = res.x
     r, tol = physical_residual(terms, xs, free, force_scale, options.newton, ())
     return Settled(xs, negative, its, r, tol, spent)
 
