@@ -69,6 +69,9 @@ VARIANTS = {
     # the Marquardt damping decays to 1e-12 of diag|H| before it drops to 0 (instead of 1e-6)
     "lm_cutoff_1e-12": {"options": {"newton": {"marquardt_cutoff": 1e-12}}},
     "lm_decay_3": {"options": {"newton": {"marquardt_decay": 3.0}}},
+    # the Marquardt damping decays after any step of length 0.5 or more, not only after full steps
+    "lm_long_0.5": {"options": {"newton": {"marquardt_long_step": 0.5}}},
+    "lm_long_0.25": {"options": {"newton": {"marquardt_long_step": 0.25}}},
     "rtol_1e-5": {"options": {"newton": {"rtol": 1e-5}}},
     # an undamped step that runs out of its 200 iterations is retried damped at once
     "undamped_1": {"options": {"undamped_blocks": 1}},
@@ -138,7 +141,8 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
                 tracer.step(state.s)
             if steps:  # live, for the long runs
                 print(f"    {design} {variant}: s = {state.s:.4f}, {state.iterations} iterations, "
-                      f"{time.perf_counter() - t0:.0f} s", flush=True)
+                      f"{time.perf_counter() - t0:.0f} s, {state.metrics['bending_angle_deg']:.2f} deg, "
+                      f"negative eigenvalues {state.negative_eigenvalues}", flush=True)
 
         if tracer is not None:
             tracer.install()

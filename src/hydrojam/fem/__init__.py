@@ -54,7 +54,7 @@ _PUBLIC = {
     "hydrojam.fem.linsolve": ["LinearSolver", "LinearSolveError"],
     "hydrojam.fem.problem": ["Problem", "Dirichlet", "fixed", "prescribed"],
     "hydrojam.fem.newton": ["NewtonOptions", "NewtonResult", "NewtonStatus", "Timings", "minimize",
-                            "negative_curvature"],
+                            "negative_curvature", "lowest_mode"],
     "hydrojam.fem.path": ["PathOptions", "PathResult", "StepRecord", "PathCheckpoint", "solve_path"],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

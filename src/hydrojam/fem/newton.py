@@ -96,9 +96,11 @@ class NewtonOptions:
     marquardt_max: float = 1e4
     """Largest Marquardt damping (relative to diag|H|)."""
     marquardt_decay: float = 10.0
-    """Divisor of the Marquardt damping after a full step."""
+    """Divisor of the Marquardt damping after a long step (``marquardt_long_step``)."""
+    marquardt_long_step: float = 1.0
+    """An accepted step length at or above this decays the Marquardt damping (1: full steps only)."""
     marquardt_cutoff: float = 1e-6
-    """A Marquardt damping at or below this drops to 0 after a full step."""
+    """A Marquardt damping at or below this drops to 0 after a long step."""
 
 
 class NewtonStatus(enum.Enum):
@@ -301,10 +303,10 @@ def _marquardt_update(lm: float, alpha: float, options: NewtonOptions) -> float:
     """The Marquardt damping for the next iteration after a step of length ``alpha``: grown while
     CCD or the line search cut steps hard (a particle held only by barely-active barriers has
     almost no stiffness, so plain Newton predicts a huge rigid motion that CCD reduces to a few
-    percent, iteration after iteration), decayed after full steps."""
+    percent, iteration after iteration), decayed after long steps (``marquardt_long_step``)."""
     if alpha < options.marquardt_short_step:
         return min(max(options.marquardt_growth * lm, options.marquardt_min), options.marquardt_max)
-    if alpha == 1.0:
+    if alpha >= options.marquardt_long_step:
         return lm / options.marquardt_decay if lm > options.marquardt_cutoff else 0.0
     return lm
 
