@@ -67,6 +67,8 @@ VARIANTS = {
     "settle_never": {"options": {"settle": "never"}},
     "path_ds_0.1_0.2": {"options": {"ds0": 0.1, "ds_max": 0.2}},
     "path_ds_0.025": {"options": {"ds0": 0.025, "ds_max": 0.025}},
+    "path_ds_0.2": {"options": {"ds0": 0.2, "ds_max": 0.2}},
+    "path_ds_0.1": {"options": {"ds0": 0.1, "ds_max": 0.1}},
     # the Marquardt damping decays to 1e-12 of diag|H| before it drops to 0 (instead of 1e-6)
     "lm_cutoff_1e-12": {"options": {"newton": {"marquardt_cutoff": 1e-12}}},
     "lm_decay_3": {"options": {"newton": {"marquardt_decay": 3.0}}},
