@@ -5,6 +5,7 @@ import pytest
 import scipy.sparse as sp
 
 from hydrojam.fem.newton import _sum_hessians
+from hydrojam.fem.terms import EnergyTerm
 
 
 def _random(n, density, seed, zeros=0):
@@ -46,3 +47,95 @@ def test_the_free_block_is_scipys_fancy_index(sort):
     assert got.shape == ref.shape
     assert np.array_equal(got.indptr, ref.indptr) and np.array_equal(got.indices, ref.indices)
     assert np.array_equal(got.data, ref.data)
+
+
+class _Quadratic(EnergyTerm):
+    """``C + g0 . (x - x0) + |x - x0|^2 / 2`` [mJ] on every DOF of x (n, 1): gradient g0 at x0,
+    Hessian I. ``finite_only_at_start``: the energy is infinite everywhere but at x0 (every move
+    inadmissible). ``flux``: the forces in play reported for the tolerance [N] (rtol x flux)."""
+
+    name = "quadratic"
+
+    def __init__(self, x0, g0, C=0.0, flux=None, finite_only_at_start=False, hessian_scale=1.0):
+        self.x0, self.g0, self.C, self.flux = np.asarray(x0, float).ravel(), np.asarray(g0, float), C, flux
+        self.only_start, self.h = finite_only_at_start, hessian_scale
+
+    def energy(self, x):
+        u = x.ravel() - self.x0
+        if self.only_start and np.any(u != 0):
+            return np.inf
+        return self.C + float(self.g0 @ u) + 0.5 * self.h * float(u @ u)
+
+    def gradient(self, x):
+        return self.g0 + self.h * (x.ravel() - self.x0)
+
+    def hessian(self, x, project=False):
+        return sp.diags(np.full(x.size, self.h), format="csr")
+
+    def force_flux(self, x, gradient=None):
+        return self.gradient(x) if self.flux is None else np.full(x.size, self.flux)
+
+
+def _minimise(term, n=3):
+    from hydrojam.fem.newton import minimize
+
+    return minimize([term], np.zeros((n, 1)), np.ones(n, dtype=bool), 1.0)
+
+
+def test_each_newton_status_is_reached_on_a_small_problem():
+    """Every way a minimisation can end, on a quadratic whose tolerance is set by its reported
+    forces in play (flux 1e6 N: tol = rtol x |flux| ~ 1.7 N over three DOFs):
+
+    - converged: a plain quadratic from 5 N away;
+    - converged at the decrement's round-off: the same 5 N residual (within stall_factor of the
+      tolerance) on an energy of 1e20 mJ, whose decrease 37.5 mJ is below 1e-14 of it;
+    - converged with no descent left: within stall_factor, every move inadmissible;
+    - line search failed: the same far from the tolerance (5000 N);
+    - singular: a linear energy (zero Hessian), no damped solve gives a direction;
+    - not finite: a NaN force;
+    - inadmissible start: infinite energy at x0."""
+    from hydrojam.fem.newton import NewtonStatus
+
+    g5, g5000 = np.full(3, 5.0), np.full(3, 5000.0)
+    assert _minimise(_Quadratic(np.zeros(3), g5, flux=1e6)).status is NewtonStatus.CONVERGED
+    assert _minimise(_Quadratic(np.zeros(3), g5, C=1e20, flux=1e6)).status is NewtonStatus.CONVERGED_DECREMENT
+    out = _minimise(_Quadratic(np.zeros(3), g5, flux=1e6, finite_only_at_start=True))
+    assert out.status is NewtonStatus.CONVERGED_NO_DESCENT and out.converged
+    out = _minimise(_Quadratic(np.zeros(3), g5000, flux=1e6, finite_only_at_start=True))
+    assert out.status is NewtonStatus.LINE_SEARCH_FAILED and not out.converged
+    assert np.array_equal(out.x, np.zeros((3, 1)))  # the last admissible state is kept
+    assert _minimise(_Quadratic(np.zeros(3), g5, hessian_scale=0.0)).status is NewtonStatus.SINGULAR
+    nan_force = _Quadratic(np.zeros(3), g5)
+    nan_force.gradient = lambda x: np.full(x.size, np.nan)
+    assert _minimise(nan_force).status is NewtonStatus.NOT_FINITE
+    assert _minimise(_Quadratic(np.ones(3), g5, finite_only_at_start=True)).status is NewtonStatus.INADMISSIBLE_START
+
+
+def test_the_line_search_backtracks_to_the_first_sufficient_decrease():
+    """On E = u^2/2 from u = 1 along the overshooting step -4 (slope -4): alpha 1 (u = -3) and
+    1/2 (u = -1, no decrease) are rejected, 1/4 lands on the minimum; from a cap of 0.3 the
+    first trial is the cap, and 0.3 (u = -0.2) is accepted."""
+    from hydrojam.fem.newton import NewtonOptions, _line_search
+
+    term = _Quadratic(np.zeros(1), np.zeros(1))
+    x, step = np.ones(1), np.array([-4.0])
+    alpha, xn, En = _line_search([term], x, 0.5, step, -4.0, (1, 1), 1.0, NewtonOptions())
+    assert alpha == 0.25 and xn[0] == 0.0 and En == 0.0
+    alpha, xn, _ = _line_search([term], x, 0.5, step, -4.0, (1, 1), 0.3, NewtonOptions())
+    assert alpha == 0.3 and xn[0] == pytest.approx(-0.2, abs=1e-15)
+
+
+def test_the_marquardt_damping_grows_on_short_steps_and_decays_on_full_ones():
+    """From 0, a short step (< 0.1) starts the damping at marquardt_min, each further one grows it
+    10x up to marquardt_max; a middling step keeps it; a full step divides it by 10, and one at or
+    below the cutoff drops it to 0."""
+    from hydrojam.fem.newton import NewtonOptions, _marquardt_update
+
+    o = NewtonOptions()
+    lm = _marquardt_update(0.0, 0.05, o)
+    assert lm == o.marquardt_min
+    assert _marquardt_update(lm, 0.05, o) == pytest.approx(10 * o.marquardt_min)
+    assert _marquardt_update(o.marquardt_max, 0.01, o) == o.marquardt_max
+    assert _marquardt_update(1e-3, 0.5, o) == 1e-3
+    assert _marquardt_update(1e-3, 1.0, o) == pytest.approx(1e-4)
+    assert _marquardt_update(o.marquardt_cutoff, 1.0, o) == 0.0
