@@ -31,6 +31,7 @@ import argparse
 import concurrent.futures
 import dataclasses
 import functools
+import os
 import statistics
 import sys
 import time
@@ -190,6 +191,8 @@ def main(argv=None) -> int:
     ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="FIELD=VALUE",
                     help="design override for every run (repeatable)")
     ap.add_argument("--steps", action="store_true", help="print every load step's iterations")
+    ap.add_argument("--markdown", metavar="FILE", help="write each (design, variant)'s replica table, with a line of "
+                    "conditions, to FILE (the page docs/replicas.md includes)")
     ap.add_argument("--trace", metavar="PREFIX", help="write every Newton iteration to PREFIX-<design>-<variant>-<run>.csv "
                     "and print where the iterations went")
     args = ap.parse_args(argv)
@@ -214,7 +217,42 @@ def main(argv=None) -> int:
         print(table(["design", "variant", "runs", "angle mean ± std [deg]", "angle range", "dx mean ± std [mm]",
                      "dz mean ± std [mm]", "iterations mean ± std", "all iterations mean ± std"],
                     _spreads(rows), left=2))
+    if args.markdown:
+        _write_markdown(args.markdown, rows, args)
+        print(f"\nreplica tables written to {args.markdown}")
     return 0
+
+
+def _write_markdown(path: str, rows: list[list[str]], args) -> None:
+    """The replica tables as a Markdown page fragment: a line of conditions (the command, the
+    commit, cores, solver threads, workers), then per (design, variant) the angle, tip and
+    iterations as mean ± std, min and max with their replica, and every replica's value."""
+    from hydrojam.actuator.provenance import source_provenance
+
+    src = source_provenance()
+    commit = src["commit"][:7] if src["commit"] != "unknown" else "unknown"
+    threads = os.environ.get("HYDROJAM_SOLVER_THREADS", "1")
+    command = "benchmarks/path.py " + " ".join(sys.argv[1:])
+    lines = [f"Measured by `{command}`: code of `{commit}`{' (with local changes)' if src['dirty'] is True else ''}, "
+             f"{os.cpu_count()} cores, {threads} solver thread(s) a run, {max(args.workers, 1)} run(s) at once.", ""]
+    for key in dict.fromkeys((r[0], r[1]) for r in rows):
+        sel = [r for r in rows if (r[0], r[1]) == key]
+        overrides = " ".join([*DESIGNS[key[0]], *args.overrides]) or "the default design"
+        lines += [f"**{key[0]}** ({overrides}), {len(sel)} run(s), variant {key[1]}:", "",
+                  "| | mean ± std | min (run) | max (run) | runs in order |", "|---|---:|---:|---:|---|"]
+        names = [r[2] for r in sel]
+        quantities = [("θ [deg]", [float(r[9]) for r in sel], "{:.2f}"),
+                      ("δx [mm]", [float(r[10].strip("()").split(",")[0]) for r in sel], "{:.1f}"),
+                      ("δz [mm]", [float(r[10].strip("()").split(",")[1]) for r in sel], "{:.1f}"),
+                      ("Newton iterations (all)", [float(r[6]) for r in sel], "{:.0f}")]
+        for label, values, f in quantities:
+            spread = statistics.stdev(values) if len(values) > 1 else 0.0
+            lo, hi = int(np.argmin(values)), int(np.argmax(values))
+            lines.append(f"| {label} | {f.format(statistics.mean(values))} ± {f.format(spread)} | "
+                         f"{f.format(values[lo])} ({names[lo]}) | {f.format(values[hi])} ({names[hi]}) | "
+                         + ", ".join(f.format(v) for v in values) + " |")
+        lines.append("")
+    Path(path).write_text("\n".join(lines), encoding="utf-8")
 
 
 def _spreads(rows: list[list[str]]) -> list[list[str]]:
