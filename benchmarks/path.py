@@ -192,7 +192,9 @@ def main(argv=None) -> int:
                     help="design override for every run (repeatable)")
     ap.add_argument("--steps", action="store_true", help="print every load step's iterations")
     ap.add_argument("--markdown", metavar="FILE", help="write each (design, variant)'s replica table, with a line of "
-                    "conditions, to FILE (the page docs/replicas.md includes)")
+                    "conditions, to FILE (with --section: into FILE's marked section)")
+    ap.add_argument("--section", metavar="NAME", help="with --markdown: replace the text between the lines "
+                    "'<!-- path.py: NAME -->' and '<!-- /path.py: NAME -->' of FILE (a docs page) instead")
     ap.add_argument("--trace", metavar="PREFIX", help="write every Newton iteration to PREFIX-<design>-<variant>-<run>.csv "
                     "and print where the iterations went")
     args = ap.parse_args(argv)
@@ -219,7 +221,7 @@ def main(argv=None) -> int:
                     _spreads(rows), left=2))
     if args.markdown:
         _write_markdown(args.markdown, rows, args)
-        print(f"\nreplica tables written to {args.markdown}")
+        print(f"\nreplica tables written to {args.markdown}" + (f", section {args.section}" if args.section else ""))
     return 0
 
 
@@ -252,7 +254,21 @@ def _write_markdown(path: str, rows: list[list[str]], args) -> None:
                          f"{f.format(values[lo])} ({names[lo]}) | {f.format(values[hi])} ({names[hi]}) | "
                          + ", ".join(f.format(v) for v in values) + " |")
         lines.append("")
-    Path(path).write_text("\n".join(lines), encoding="utf-8")
+    text = "\n".join(lines)
+    section = getattr(args, "section", None)
+    if section:
+        text = replace_section(Path(path).read_text(encoding="utf-8"), section, text)
+    Path(path).write_text(text, encoding="utf-8")
+
+
+def replace_section(page: str, name: str, text: str) -> str:
+    """``page`` with the lines between '<!-- path.py: NAME -->' and '<!-- /path.py: NAME -->'
+    replaced by ``text`` (the markers kept); ValueError naming the markers where either is missing."""
+    begin, end = f"<!-- path.py: {name} -->", f"<!-- /path.py: {name} -->"
+    i, j = page.find(begin), page.find(end)
+    if i < 0 or j < i:
+        raise ValueError(f"no section {begin} ... {end} in the page")
+    return page[: i + len(begin)] + "\n" + text.rstrip("\n") + "\n" + page[j:]
 
 
 def _spreads(rows: list[list[str]]) -> list[list[str]]:

@@ -5,6 +5,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import scipy.sparse as sp
 
 from hydrojam.fem.linsolve import LinearSolver
@@ -67,3 +68,14 @@ def test_the_replica_tables_are_written_as_markdown_with_their_conditions(tmp_pa
     assert "**default** (friction=0.01), 3 run(s), variant main:" in text
     assert "| θ [deg] | 75.00 ± 1.00 | 74.00 (r0) | 76.00 (r2) | 74.00, 75.00, 76.00 |" in text
     assert "| Newton iterations (all) | 110 ± 10 | 100 (r0) | 120 (r2) | 100, 110, 120 |" in text
+
+
+def test_a_marked_section_of_a_page_is_replaced_and_nothing_else():
+    import path as path_benchmark
+
+    page = "intro\n<!-- path.py: t -->\nold table\n<!-- /path.py: t -->\noutro\n"
+    out = path_benchmark.replace_section(page, "t", "new table\n")
+    assert out == "intro\n<!-- path.py: t -->\nnew table\n<!-- /path.py: t -->\noutro\n"
+    assert path_benchmark.replace_section(out, "t", "new table") == out
+    with pytest.raises(ValueError, match="no section"):
+        path_benchmark.replace_section(page, "other", "x")
