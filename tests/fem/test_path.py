@@ -353,3 +353,48 @@ def test_a_saddle_among_many_dofs_is_settled_along_its_mode():
     assert out.negative == 0 and out.residual <= out.tolerance
     assert abs(abs(out.x[0, 0]) - 1.0) <= out.residual / 2.0 * 1.5
     assert np.abs(out.x[1:] - x[1:]).max() <= out.residual / 0.5 * 1.5
+
+
+class _ConcaveAt(EnergyTerm):
+    """``-c u^2/2`` [mJ] on one DOF, projected to 0 alone (as an element Hessian is)."""
+
+    name = "concave_at"
+
+    def __init__(self, dof, c):
+        self.dof, self.c = dof, c
+
+    def energy(self, x):
+        return -0.5 * self.c * float(x.ravel()[self.dof]) ** 2
+
+    def gradient(self, x):
+        g = np.zeros(x.size)
+        g[self.dof] = -self.c * x.ravel()[self.dof]
+        return g
+
+    def hessian(self, x, project=False):
+        H = sp.lil_matrix((x.size, x.size))
+        H[self.dof, self.dof] = 0.0 if project else -self.c
+        return H.tocsr()
+
+
+def test_the_lowest_mode_is_found_beside_many_soft_modes():
+    """60 soft DOFs (curvature 1e-6, as rattling particles), the rest stiff (5), and DOF 100 unstable:
+    a convex well of 2 and a concave piece of 3 (H = -1; projected alone, the concave piece drops
+    out, so the preconditioner sees +2 there). LOBPCG must not stop on the soft cluster, whose
+    residuals are below its tolerance: it finds -1 at DOF 100 (within the tolerance's square over
+    the gap) and the mode points there."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.newton import lowest_mode
+
+    n = 200
+    x = np.zeros((n, 1))
+    free = np.ones(n, dtype=bool)
+    free[-1] = False
+    k = np.full((n, 1), 5.0)
+    k[:60], k[100] = 1e-6, 2.0
+    value, mode = lowest_mode([Well(x.copy(), k), _ConcaveAt(100, 3.0)], x, free, LinearSolver())
+    diag = k[:-1, 0].copy()  # |diag H| over the free DOFs (DOF 100: |-1|)
+    diag[100] = 1.0
+    r = 1e-5 * diag.mean()  # lowest_mode's LOBPCG residual bound
+    assert abs(value + 1.0) <= r**2 / 1.0 + 1e-9 * diag.mean()  # gap to the next eigenvalue (1e-6): 1
+    assert int(np.argmax(np.abs(mode))) == 100 and abs(mode[100, 0]) == 1.0

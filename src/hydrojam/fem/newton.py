@@ -34,7 +34,8 @@ from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
 from hydrojam.fem.terms import EnergyTerm
 
 _TINY = 1e-300  # keeps the scaled gradient step finite when the Hessian's diagonal is all zero
-_MODE_SHIFT = 1e-6  # x mean|diag H|: makes lowest_mode's projected preconditioner definite (speed only)
+_MODE_SHIFT = 1e-3  # x mean|diag H|: lowest_mode's preconditioner shift; much smaller, its inverse
+# overweights the projected Hessian's soft modes and LOBPCG settles on them (docs/solver.md)
 _MODE_TOLERANCE = 1e-5  # x mean|diag H|: lowest_mode's LOBPCG residual norm (a direction, not a spectrum)
 
 
