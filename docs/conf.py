@@ -20,6 +20,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.mathjax",
     "hydrojam_cli",
+    "hydrojam_fields",
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
@@ -33,7 +34,7 @@ myst_enable_extensions = ["dollarmath", "colon_fence"]
 # autodoc + numpydoc: document what each package's __all__ names, in source order
 autodoc_default_options = {"members": True, "member-order": "bysource",
                            # pydantic's class attributes are not hydrojam's API
-                           "exclude-members": "model_config, model_fields, model_computed_fields"}
+                           "exclude-members": "model_config, model_fields, model_computed_fields, model_post_init"}
 autodoc_typehints = "none"
 autodoc_preserve_defaults = True
 numpydoc_show_class_members = False
