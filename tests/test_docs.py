@@ -37,3 +37,11 @@ def test_the_site_builds_without_warnings(tmp_path):
     assert (tmp_path / "html" / "index.html").is_file()
     api = (tmp_path / "html" / "api" / "fem.html").read_text()
     assert "solve_path" in api and "Parameters" in (tmp_path / "html" / "api" / "materials.html").read_text()
+    # the design's keys, a table's under its dotted name, with the range its model enforces
+    actuator = (tmp_path / "html" / "api" / "actuator.html").read_text()
+    from hydrojam._validation import field_range
+    from hydrojam.actuator.design import Design
+
+    for key in ("particle_layers", "mesh.size", "stimulus.temperature"):
+        assert f">{key}<" in actuator
+    assert field_range(Design, "particle_layers") in actuator
