@@ -69,7 +69,6 @@ VARIANTS = {
     "path_ds_0.1_0.2": {"options": {"ds0": 0.1, "ds_max": 0.2}},
     "path_ds_0.025": {"options": {"ds0": 0.025, "ds_max": 0.025}},
     "path_ds_0.2": {"options": {"ds0": 0.2, "ds_max": 0.2}},
-    "path_ds_0.1": {"options": {"ds0": 0.1, "ds_max": 0.1}},
     # the Marquardt damping decays to 1e-12 of diag|H| before it drops to 0 (instead of 1e-6)
     "lm_cutoff_1e-12": {"options": {"newton": {"marquardt_cutoff": 1e-12}}},
     "lm_decay_3": {"options": {"newton": {"marquardt_decay": 3.0}}},
@@ -220,15 +219,17 @@ def main(argv=None) -> int:
                      "dz mean ± std [mm]", "iterations mean ± std", "all iterations mean ± std"],
                     _spreads(rows), left=2))
     if args.markdown:
-        _write_markdown(args.markdown, rows, args)
+        _write_markdown(args.markdown, rows, args.workers, args.overrides, args.section)
         print(f"\nreplica tables written to {args.markdown}" + (f", section {args.section}" if args.section else ""))
     return 0
 
 
-def _write_markdown(path: str, rows: list[list[str]], args) -> None:
-    """The replica tables as a Markdown page fragment: a line of conditions (the command, the
-    commit, cores, solver threads, workers), then per (design, variant) the angle, tip and
-    iterations as mean ± std, min and max with their replica, and every replica's value."""
+def _write_markdown(path: str, rows: list[list[str]], workers: int, overrides: list[str],
+                    section: str | None = None) -> None:
+    """The replica tables as Markdown: a line of conditions (the command, the commit, cores,
+    solver threads, runs at once), then per (design, variant) the angle, tip and all iterations
+    as mean ± std, min and max with their run, and every run's value; written to ``path``, or
+    into its ``section`` (:func:`replace_section`)."""
     from hydrojam.actuator.provenance import source_provenance
 
     src = source_provenance()
@@ -236,18 +237,16 @@ def _write_markdown(path: str, rows: list[list[str]], args) -> None:
     threads = os.environ.get("HYDROJAM_SOLVER_THREADS", "1")
     command = "benchmarks/path.py " + " ".join(sys.argv[1:])
     lines = [f"Measured by `{command}`: code of `{commit}`{' (with local changes)' if src['dirty'] is True else ''}, "
-             f"{os.cpu_count()} cores, {threads} solver thread(s) a run, {max(args.workers, 1)} run(s) at once.", ""]
+             f"{os.cpu_count()} cores, {threads} solver thread(s) a run, {max(workers, 1)} run(s) at once.", ""]
     for key in dict.fromkeys((r[0], r[1]) for r in rows):
         sel = [r for r in rows if (r[0], r[1]) == key]
-        overrides = " ".join([*DESIGNS[key[0]], *args.overrides]) or "the default design"
-        lines += [f"**{key[0]}** ({overrides}), {len(sel)} run(s), variant {key[1]}:", "",
+        q = _quantities(sel)
+        lines += [f"**{key[0]}** ({' '.join([*DESIGNS[key[0]], *overrides]) or 'the default design'}), "
+                  f"{len(sel)} run(s), variant {key[1]}:", "",
                   "| | mean ± std | min (run) | max (run) | runs in order |", "|---|---:|---:|---:|---|"]
         names = [r[2] for r in sel]
-        quantities = [("θ [deg]", [float(r[9]) for r in sel], "{:.2f}"),
-                      ("δx [mm]", [float(r[10].strip("()").split(",")[0]) for r in sel], "{:.1f}"),
-                      ("δz [mm]", [float(r[10].strip("()").split(",")[1]) for r in sel], "{:.1f}"),
-                      ("Newton iterations (all)", [float(r[6]) for r in sel], "{:.0f}")]
-        for label, values, f in quantities:
+        for label, values, f in [("θ [deg]", q["angle"], "{:.2f}"), ("δx [mm]", q["dx"], "{:.1f}"),
+                                 ("δz [mm]", q["dz"], "{:.1f}"), ("Newton iterations (all)", q["all"], "{:.0f}")]:
             spread = statistics.stdev(values) if len(values) > 1 else 0.0
             lo, hi = int(np.argmin(values)), int(np.argmax(values))
             lines.append(f"| {label} | {f.format(statistics.mean(values))} ± {f.format(spread)} | "
@@ -255,7 +254,6 @@ def _write_markdown(path: str, rows: list[list[str]], args) -> None:
                          + ", ".join(f.format(v) for v in values) + " |")
         lines.append("")
     text = "\n".join(lines)
-    section = getattr(args, "section", None)
     if section:
         text = replace_section(Path(path).read_text(encoding="utf-8"), section, text)
     Path(path).write_text(text, encoding="utf-8")
@@ -271,6 +269,14 @@ def replace_section(page: str, name: str, text: str) -> str:
     return page[: i + len(begin)] + "\n" + text.rstrip("\n") + "\n" + page[j:]
 
 
+def _quantities(sel: list[list[str]]) -> dict[str, list[float]]:
+    """The runs' angle [deg], tip dx and dz [mm], iterations on the path and in the releases
+    ("path"), and all iterations ("all"), read back from their table rows."""
+    tips = [r[10].strip("()").split(",") for r in sel]
+    return {"angle": [float(r[9]) for r in sel], "dx": [float(t[0]) for t in tips], "dz": [float(t[1]) for t in tips],
+            "path": [float(int(r[3]) + int(r[4])) for r in sel], "all": [float(r[6]) for r in sel]}
+
+
 def _spreads(rows: list[list[str]]) -> list[list[str]]:
     """Per (design, variant): mean ± sample standard deviation of angle, tip and iterations."""
     def ms(v):
@@ -278,13 +284,9 @@ def _spreads(rows: list[list[str]]) -> list[list[str]]:
     out = []
     for key in dict.fromkeys((r[0], r[1]) for r in rows):
         sel = [r for r in rows if (r[0], r[1]) == key]
-        ang = [float(r[9]) for r in sel]
-        dx = [float(r[10].strip("()").split(",")[0]) for r in sel]
-        dz = [float(r[10].strip("()").split(",")[1]) for r in sel]
-        its = [int(r[3]) + int(r[4]) for r in sel]
-        every = [int(r[6]) for r in sel]
-        out.append([*key, str(len(sel)), ms(ang), f"{min(ang):.1f}-{max(ang):.1f}", ms(dx), ms(dz), ms(its),
-                    ms(every)])
+        q = _quantities(sel)
+        out.append([*key, str(len(sel)), ms(q["angle"]), f"{min(q['angle']):.1f}-{max(q['angle']):.1f}", ms(q["dx"]),
+                    ms(q["dz"]), ms(q["path"]), ms(q["all"])])
     return out
 
 

@@ -55,14 +55,12 @@ def test_the_iteration_trace_records_every_newton_iteration_and_restores_the_sol
 def test_the_replica_tables_are_written_as_markdown_with_their_conditions(tmp_path):
     """``path.py --markdown``: a line of conditions naming the command and the commit, then per
     design a table whose mean, spread, extremes and per-run values are the rows' own."""
-    import argparse
-
     import path as path_benchmark
 
     rows = [["default", "main", f"r{k}", "100", "0", "0", str(100 + 10 * k), "1.0", "True", f"{74.0 + k:.2f}",
              f"(-6{k}.0, -2.0)"] for k in range(3)]
     out = tmp_path / "replicas.md"
-    path_benchmark._write_markdown(str(out), rows, argparse.Namespace(workers=2, overrides=["friction=0.01"]))
+    path_benchmark._write_markdown(str(out), rows, 2, ["friction=0.01"])
     text = out.read_text(encoding="utf-8")
     assert text.startswith("Measured by `benchmarks/path.py") and "code of `" in text
     assert "**default** (friction=0.01), 3 run(s), variant main:" in text

@@ -18,7 +18,7 @@ def _allowed(model, path: str, info) -> str:
     """The allowed range of a numeric field, or the choices of a Literal one ('2 or 3')."""
     from hydrojam._validation import field_range
 
-    choices = [a for a in typing.get_args(info.annotation)] if typing.get_origin(info.annotation) is Literal else []
+    choices = list(typing.get_args(info.annotation)) if typing.get_origin(info.annotation) is Literal else []
     if choices:
         return " or ".join(repr(c) for c in choices)
     return field_range(model, path) or ""

@@ -242,31 +242,31 @@ def test_the_check_can_be_switched_off():
 
 
 class Piece(EnergyTerm):
-    """``-a u^2/2 + c u^4/4`` [mJ] on DOF 0 of x (n, 1) [mm], projected to a non-negative
-    curvature alone, as an element Hessian is. A concave piece (a = 1) and a quartic one (c = 1)
-    sum to a saddle at u = 0 and stable minima at u = +-1 of curvature 2; there the projected
-    Hessian (3, the concave piece dropped) overestimates the true one, and projected Newton
-    converges only linearly, at the rate 1/3 per iteration."""
+    """``-a u^2/2 + c u^4/4`` [mJ] on DOF ``dof`` of x (n, 1) [mm] (u = x[dof]), projected to a
+    non-negative curvature alone, as an element Hessian is. A concave piece (a = 1) and a quartic
+    one (c = 1) sum to a saddle at u = 0 and stable minima at u = +-1 of curvature 2; there the
+    projected Hessian (3, the concave piece dropped) overestimates the true one, and projected
+    Newton converges only linearly, at the rate 1/3 per iteration."""
 
-    def __init__(self, name, a=0.0, c=0.0):
-        self.name, self.a, self.c = name, a, c
+    def __init__(self, name, a=0.0, c=0.0, dof=0):
+        self.name, self.a, self.c, self.dof = name, a, c, dof
 
     def energy(self, x):
-        u = float(x[0, 0])
+        u = float(x.ravel()[self.dof])
         return -0.5 * self.a * u**2 + 0.25 * self.c * u**4
 
     def gradient(self, x):
         g = np.zeros(x.size)
-        u = float(x[0, 0])
-        g[0] = -self.a * u + self.c * u**3
+        u = float(x.ravel()[self.dof])
+        g[self.dof] = -self.a * u + self.c * u**3
         return g
 
     def hessian(self, x, project=False):
-        u = float(x[0, 0])
+        u = float(x.ravel()[self.dof])
         h = -self.a + 3 * self.c * u * u
-        H = np.zeros((x.size, x.size))
-        H[0, 0] = max(h, 0.0) if project else h
-        return sp.csr_matrix(H)
+        H = sp.lil_matrix((x.size, x.size))
+        H[self.dof, self.dof] = max(h, 0.0) if project else h
+        return H.tocsr()
 
 
 def test_a_saddle_is_settled_to_the_analytic_minimum_with_a_full_newton_finish():
@@ -355,28 +355,6 @@ def test_a_saddle_among_many_dofs_is_settled_along_its_mode():
     assert np.abs(out.x[1:] - x[1:]).max() <= out.residual / 0.5 * 1.5
 
 
-class _ConcaveAt(EnergyTerm):
-    """``-c u^2/2`` [mJ] on one DOF, projected to 0 alone (as an element Hessian is)."""
-
-    name = "concave_at"
-
-    def __init__(self, dof, c):
-        self.dof, self.c = dof, c
-
-    def energy(self, x):
-        return -0.5 * self.c * float(x.ravel()[self.dof]) ** 2
-
-    def gradient(self, x):
-        g = np.zeros(x.size)
-        g[self.dof] = -self.c * x.ravel()[self.dof]
-        return g
-
-    def hessian(self, x, project=False):
-        H = sp.lil_matrix((x.size, x.size))
-        H[self.dof, self.dof] = 0.0 if project else -self.c
-        return H.tocsr()
-
-
 def test_the_lowest_mode_is_found_beside_many_soft_modes():
     """60 soft DOFs (curvature 1e-6, as rattling particles), the rest stiff (5), and DOF 100 unstable:
     a convex well of 2 and a concave piece of 3 (H = -1; projected alone, the concave piece drops
@@ -392,7 +370,7 @@ def test_the_lowest_mode_is_found_beside_many_soft_modes():
     free[-1] = False
     k = np.full((n, 1), 5.0)
     k[:60], k[100] = 1e-6, 2.0
-    value, mode = lowest_mode([Well(x.copy(), k), _ConcaveAt(100, 3.0)], x, free, LinearSolver())
+    value, mode = lowest_mode([Well(x.copy(), k), Piece("concave", a=3.0, dof=100)], x, free, LinearSolver())
     diag = k[:-1, 0].copy()  # |diag H| over the free DOFs (DOF 100: |-1|)
     diag[100] = 1.0
     r = 1e-5 * diag.mean()  # lowest_mode's LOBPCG residual bound
