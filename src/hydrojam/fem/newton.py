@@ -102,6 +102,12 @@ class NewtonOptions:
     """An accepted step length at or above this decays the Marquardt damping (1: full steps only)."""
     marquardt_cutoff: float = 1e-6
     """A Marquardt damping at or below this drops to 0 after a long step."""
+    definite: bool = False
+    """Inertia correction: a damped system K with a negative eigenvalue (the linear solver's
+    inertia, where it reports one) counts as a failed direction, so tau grows until K is positive
+    definite and the step heads for a minimum, not for a saddle."""
+    definite_floor: float = 1e-4
+    """tau's first non-zero value after an indefinite K (``definite``), relative to diag|H|."""
 
 
 class NewtonStatus(enum.Enum):
@@ -259,12 +265,14 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
             cand = solver.solve(K, -g, reach)
         except LinearSolveError:
             cand = None
+        indefinite = False
         if cand is not None and np.linalg.norm(K @ cand + g) <= options.linear_residual * r:
             slope = float(g @ cand)
-            if not adaptive or slope < 0:
+            indefinite = options.definite and bool(solver.negative_eigenvalues)
+            if (not adaptive or slope < 0) and not indefinite:
                 dx = cand
                 break
-        tau = max(options.damping_growth * tau, options.damping_floor)
+        tau = max(options.damping_growth * tau, options.definite_floor if indefinite else options.damping_floor)
     return dx, slope, tau
 
 
