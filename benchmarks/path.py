@@ -73,7 +73,7 @@ VARIANTS = {
     "lm_cutoff_1e-12": {"options": {"newton": {"marquardt_cutoff": 1e-12}}},
     "lm_decay_3": {"options": {"newton": {"marquardt_decay": 3.0}}},
     # the Marquardt damping decays after any step of length 0.5 or more, not only after full steps
-    "definite": {"options": {"newton": {"definite": True}}},
+    "indefinite": {"options": {"newton": {"definite": False}}},
     "lm_long_0.5": {"options": {"newton": {"marquardt_long_step": 0.5}}},
     "lm_long_0.25": {"options": {"newton": {"marquardt_long_step": 0.25}}},
     "rtol_1e-5": {"options": {"newton": {"rtol": 1e-5}}},
