@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from hydrojam.fem.linsolve import _pardiso_available
 from hydrojam.fem.newton import _sum_hessians
 from hydrojam.fem.terms import EnergyTerm
 
@@ -140,3 +141,60 @@ def test_the_marquardt_damping_grows_on_short_steps_and_decays_on_full_ones():
     assert _marquardt_update(1e-3, 0.5, o) == 1e-3
     assert _marquardt_update(1e-3, 1.0, o) == pytest.approx(1e-4)
     assert _marquardt_update(o.marquardt_cutoff, 1.0, o) == 0.0
+
+
+class _SaddleValley(EnergyTerm):
+    """E = a^4 / 4 + (u^4 / 4 - u^2 / 2) + k v^2 / 2 [mJ] on x = (a, y, z), u = (y + z) / sqrt 2,
+    v = (y - z) / sqrt 2: a slow quartic in a beside a double well in u, whose saddle is at u = 0
+    and minima at u = +-1, its negative mode spread over two DOFs (so no diagonal entry of the
+    Hessian is its eigenvalue)."""
+
+    name = "saddle_valley"
+    k = 10.0
+    R = np.array([[1.0, 1.0], [1.0, -1.0]]) / np.sqrt(2.0)  # (y, z) -> (u, v), its own inverse
+
+    def energy(self, x):
+        a, (u, v) = x[0, 0], self.R @ x[1:, 0]
+        return a**4 / 4 + u**4 / 4 - u**2 / 2 + self.k * v**2 / 2
+
+    def gradient(self, x):
+        a, (u, v) = x[0, 0], self.R @ x[1:, 0]
+        return np.concatenate([[a**3], self.R @ [u**3 - u, self.k * v]])
+
+    def hessian(self, x, project=False):
+        a, (u, _) = x[0, 0], self.R @ x[1:, 0]
+        H = np.zeros((3, 3))
+        H[0, 0] = 3 * a**2
+        H[1:, 1:] = self.R @ np.diag([3 * u**2 - 1, self.k]) @ self.R
+        return sp.csr_matrix(H)
+
+    def force_flux(self, x, gradient=None):
+        return np.ones(x.size)  # tol = rtol x sqrt(3) N
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="the inertia comes from PARDISO")
+def test_the_inertia_correction_heads_for_the_minimum_where_newton_reaches_the_saddle():
+    """From a = 1, u = 0.1 (negative curvature along u), plain Newton's step descends overall
+    (the quartic's decrease outweighs its climb along u) and converges quadratically in u onto
+    the saddle u = 0 while a converges linearly: an equilibrium with the Hessian's eigenvalue -1.
+    With ``definite``, every step is taken on a positive definite K, so the energy falls along u
+    too and Newton ends in the minimum u = 1 (u'' = 2 > 0). Both within the residual tolerance:
+    |u - u*| <= tol / curvature, checked at ten times that."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.newton import NewtonOptions, minimize
+
+    x0 = np.array([[1.0], [0.1 / np.sqrt(2)], [0.1 / np.sqrt(2)]])
+    term = _SaddleValley()
+    tol = 1e-6 * np.sqrt(3)
+    out = {}
+    for definite in (False, True):
+        res = minimize([term], x0, np.ones(3, dtype=bool), 1.0, NewtonOptions(max_iter=100, definite=definite),
+                       LinearSolver("pardiso"))
+        assert res.converged, res.message
+        out[definite] = res
+    u_plain = (term.R @ out[False].x[1:, 0])[0]
+    u_definite = (term.R @ out[True].x[1:, 0])[0]
+    assert abs(u_plain) <= 10 * tol / 1.0  # the saddle, curvature -1 there
+    assert np.linalg.eigvalsh(term.hessian(out[False].x).toarray()).min() < -0.9
+    assert abs(u_definite - 1.0) <= 10 * tol / 2.0  # the minimum, curvature 2 there
+    assert np.linalg.eigvalsh(term.hessian(out[True].x).toarray())[1:].min() > 1.9  # a: quartic, ~0 at 0
