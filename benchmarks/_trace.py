@@ -25,7 +25,7 @@ import hydrojam.fem.newton as newton
 from hydrojam.fem.linsolve import LinearSolver
 
 FIELDS = ("step", "residual", "tau", "cap", "alpha", "trials", "dE", "step_max", "stabilisation", "pairs",
-          "analysis")
+          "analysis", "solves", "negative", "substitutions", "projected")
 
 
 class IterationTrace:
@@ -43,23 +43,24 @@ class IterationTrace:
 
     def install(self) -> None:
         """Wrap newton's helpers and the linear solver (undone by :meth:`uninstall`)."""
-        direction, line_search, update, solve = (newton._direction, newton._line_search, newton._marquardt_update,
-                                                 LinearSolver.solve)
-        self._saved = direction, line_search, update, solve
+        direction, line_search, update, solve, resolve = (newton._direction, newton._line_search,
+                                                          newton._marquardt_update, LinearSolver.solve,
+                                                          LinearSolver.resolve)
+        self._saved = direction, line_search, update, solve, resolve
         row = self._row
 
         def traced_direction(terms, xs, hessians, Hff, hdiag, g, r, lm, *args, **kwargs):
             row.clear()
-            row.update(step=self._steps, residual=r, analysis=0, trials=0)
+            row.update(step=self._steps, residual=r, analysis=0, trials=0, solves=0, substitutions=0)
             stab = next((t for t in terms if t.name == "stabilisation"), None)
             row["stabilisation"] = 0.0 if stab is None else float(getattr(stab, "scale", 0.0))
             contact = next((t for t in terms if t.name == "contact"), None)
             inner = getattr(contact, "_term", contact)  # inside a TimedTerm (simulate's clocks)
             if inner is not None and hasattr(inner, "_collisions"):
                 row["pairs"] = len(inner._collisions(xs)[1])
-            dx, slope, tau = direction(terms, xs, hessians, Hff, hdiag, g, r, lm, *args, **kwargs)
-            row["tau"] = tau
-            return dx, slope, tau
+            out = direction(terms, xs, hessians, Hff, hdiag, g, r, lm, *args, **kwargs)
+            row["tau"], row["projected"] = out[2], int(out[3])
+            return out
 
         def traced_line_search(terms, x, E, step, slope, shape, alpha, options):
             row["cap"] = alpha
@@ -87,18 +88,27 @@ class IterationTrace:
 
         def traced_solve(solver, K, b, reach=None):
             before = solver.analyses
-            out = solve(solver, K, b, reach)
-            row["analysis"] = row.get("analysis", 0) + (solver.analyses - before)
-            return out
+            try:
+                return solve(solver, K, b, reach)
+            finally:
+                row["analysis"] = row.get("analysis", 0) + (solver.analyses - before)
+                row["solves"] = row.get("solves", 0) + 1
+                if row["solves"] == 1:
+                    row["negative"] = "" if solver.negative_eigenvalues is None else solver.negative_eigenvalues
+
+        def traced_resolve(solver, b):
+            row["substitutions"] = row.get("substitutions", 0) + 1
+            return resolve(solver, b)
 
         newton._direction, newton._line_search, newton._marquardt_update = (traced_direction, traced_line_search,
                                                                             traced_update)
-        LinearSolver.solve = traced_solve
+        LinearSolver.solve, LinearSolver.resolve = traced_solve, traced_resolve
 
     def uninstall(self) -> None:
         """Put newton's helpers and the linear solver back."""
         if self._saved is not None:
-            newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve = self._saved
+            (newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
+             LinearSolver.resolve) = self._saved
             self._saved = None
 
     def write(self, path: str) -> None:
@@ -127,4 +137,7 @@ class IterationTrace:
                 f"{np.mean(alpha < cap):.0%}; full steps {np.mean(alpha == 1):.0%}; median step length "
                 f"{np.median(alpha):.2f}; in the tail (residual within 100x of the step's lowest) {tail / n:.0%}; "
                 f"damped {np.mean([float(r['stabilisation'] or 0) > 0 for r in self.rows]):.0%}; "
-                f"new patterns {analyses / n:.0%} of iterations")
+                f"new patterns {analyses / n:.0%} of iterations; factorisations per iteration "
+                f"{sum(int(r['solves'] or 0) for r in self.rows) / n:.2f}, substitutions "
+                f"{sum(int(r['substitutions'] or 0) for r in self.rows) / n:.2f}; contact projected in "
+                f"{np.mean([r['projected'] == 1 for r in self.rows]):.0%} of the directions")

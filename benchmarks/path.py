@@ -74,6 +74,11 @@ VARIANTS = {
     "lm_decay_3": {"options": {"newton": {"marquardt_decay": 3.0}}},
     # the Marquardt damping decays after any step of length 0.5 or more, not only after full steps
     "indefinite": {"options": {"newton": {"definite": False}}},
+    # the contact Hessian projected from each iteration's first attempt / once a minimisation needed it
+    "projected_start": {"options": {"newton": {"fallback_start": "projected"}}},
+    "remembered_start": {"options": {"newton": {"fallback_start": "remembered"}}},
+    # the projected K factorised, then preconditioning conjugate gradients on the full K
+    "krylov": {"options": {"newton": {"fallback_start": "krylov"}}},
     "lm_long_0.5": {"options": {"newton": {"marquardt_long_step": 0.5}}},
     "lm_long_0.25": {"options": {"newton": {"marquardt_long_step": 0.25}}},
     "rtol_1e-5": {"options": {"newton": {"rtol": 1e-5}}},
@@ -175,6 +180,11 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
                          for h in history)
               + "; release rounds " + " ".join(f"{r['scale']:g}:{r['iterations']}{'' if r['converged'] else '!'}"
                                                for r in rounds), flush=True)
+    t = res.timings
+    its = max(int(t["newton_iterations"]), 1)
+    print(f"  {design} {variant} {label_of(seed, replica)}: {1e3 * wall / its:.0f} ms a Newton iteration; of the "
+          f"wall, linear solves {t['linear_solve'] / wall:.0%}, contact {t['contact'] / wall:.0%}, elastic "
+          f"{t['elastic'] / wall:.0%}", flush=True)
     label = label_of(seed, replica)
     return [design, variant, label, str(res.newton_iterations - release_its),
             str(release_its), str(n_rounds), str(res.timings["newton_iterations"]), f"{wall:.1f}", str(m["stabilisation_released"]),

@@ -39,7 +39,8 @@ def test_the_iteration_trace_records_every_newton_iteration_and_restores_the_sol
     hint passed through) and writes its columns; uninstalled, Newton's helpers are back."""
     import hydrojam.fem.newton as newton
 
-    saved = newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve
+    saved = (newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
+             LinearSolver.resolve)
     trace = IterationTrace()
     trace.install()
     try:
@@ -48,7 +49,9 @@ def test_the_iteration_trace_records_every_newton_iteration_and_restores_the_sol
         trace.uninstall()
     assert res.converged and res.iterations == len(trace.rows) > 0
     assert all(set(row) == set(FIELDS) for row in trace.rows)
-    assert (newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve) == saved
+    assert all(row["solves"] >= 1 and row["substitutions"] == 0 and row["projected"] == 0 for row in trace.rows)
+    assert (newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
+            LinearSolver.resolve) == saved
     assert "iterations over 1 steps" in trace.summary("quartic")
 
 

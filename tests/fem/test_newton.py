@@ -198,3 +198,99 @@ def test_the_inertia_correction_heads_for_the_minimum_where_newton_reaches_the_s
     assert np.linalg.eigvalsh(term.hessian(out[False].x).toarray()).min() < -0.9
     assert abs(u_definite - 1.0) <= 10 * tol / 2.0  # the minimum, curvature 2 there
     assert np.linalg.eigvalsh(term.hessian(out[True].x).toarray())[1:].min() > 1.9  # a: quartic, ~0 at 0
+
+
+def _spd(n, seed):
+    """A sparse symmetric positive definite matrix (a shifted graph Laplacian) and its scale."""
+    A = abs(_random(n, 0.05, seed))
+    L = sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A
+    return (L + sp.identity(n)).tocsr()
+
+
+@pytest.mark.parametrize("method", ["scipy", "pardiso"])
+def test_conjugate_gradients_solve_the_full_system_preconditioned_by_a_nearby_one(method):
+    """K = M + c w w^T (c > 0) preconditioned by M's factorisation: M^-1 K is the identity but for
+    one eigenvalue, so the conjugate gradients reach ||K x + g|| <= linear_residual ||g|| within
+    a few iterations and x is K^-1 (-g) to that accuracy (x's error <= residual / lambda_min(K),
+    and lambda_min(K) >= lambda_min(M) >= 1)."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.newton import NewtonOptions, _conjugate_gradients
+
+    if method == "pardiso" and not _pardiso_available():
+        pytest.skip("PARDISO is not available")
+    n = 80
+    M = _spd(n, 3)
+    rng = np.random.default_rng(4)
+    w, g = rng.standard_normal(n), rng.standard_normal(n)
+    K = (M + 5.0 * sp.csr_matrix(np.outer(w, w))).tocsr()
+    solver = LinearSolver(method)
+    solver.solve(M, -g)
+    options = NewtonOptions()
+    r = float(np.linalg.norm(g))
+    x = _conjugate_gradients(K, g, r, solver, options)
+    assert x is not None
+    assert np.linalg.norm(K @ x + g) <= options.linear_residual * r
+    exact = np.linalg.solve(K.toarray(), -g)
+    assert np.linalg.norm(x - exact) <= options.linear_residual * r / 1.0
+    assert g @ x < 0
+
+
+def test_conjugate_gradients_refuse_a_system_with_negative_curvature():
+    """K = M - c w w^T with c w^T M^-1 w > 1 has one negative eigenvalue, and the preconditioned
+    Krylov space holds it after two iterations: K's restriction to the conjugate directions is
+    diagonal, so by Sylvester's law one of their curvatures p.K.p is negative, and the conjugate
+    gradients return None instead of the saddle's Newton step."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.newton import NewtonOptions, _conjugate_gradients
+
+    n = 80
+    M = _spd(n, 5)
+    rng = np.random.default_rng(6)
+    w, g = rng.standard_normal(n), rng.standard_normal(n)
+    c = 2.0 / float(w @ np.linalg.solve(M.toarray(), w))
+    K = (M - c * sp.csr_matrix(np.outer(w, w))).tocsr()
+    assert np.linalg.eigvalsh(K.toarray()).min() < 0
+    solver = LinearSolver("scipy")
+    solver.solve(M, -g)
+    assert _conjugate_gradients(K, g, float(np.linalg.norm(g)), solver, NewtonOptions()) is None
+
+
+class _ProjectableSaddleValley(_SaddleValley):
+    """The saddle valley as a term with ``fallback_projection`` (as contact is): its projected
+    Hessian has the negative eigenvalues clipped to 0."""
+
+    fallback_projection = True
+
+    def hessian(self, x, project=False):
+        H = super().hessian(x).toarray()
+        if project:
+            w, V = np.linalg.eigh(H)
+            H = (V * np.maximum(w, 0.0)) @ V.T
+        return sp.csr_matrix(H)
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="the inertia comes from PARDISO")
+@pytest.mark.parametrize("start", ["full", "projected", "remembered", "krylov"])
+def test_every_fallback_start_heads_for_the_minimum(start):
+    """With the inertia correction, wherever the projectable term starts (its full Hessian, its
+    projection, the projection once needed, or the conjugate gradients on the full Hessian
+    preconditioned by the projected one), Newton ends in the minimum u = 1, not on the saddle
+    u = 0 that plain Newton reaches from there (the test above); within ten times the residual
+    tolerance over the curvature there."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.newton import NewtonOptions, minimize
+
+    x0 = np.array([[1.0], [0.1 / np.sqrt(2)], [0.1 / np.sqrt(2)]])
+    term = _ProjectableSaddleValley()
+    res = minimize([term], x0, np.ones(3, dtype=bool), 1.0,
+                   NewtonOptions(max_iter=100, definite=True, fallback_start=start), LinearSolver("pardiso"))
+    assert res.converged, res.message
+    assert abs((term.R @ res.x[1:, 0])[0] - 1.0) <= 10 * 1e-6 * np.sqrt(3) / 2.0
+
+
+def test_an_unknown_fallback_start_is_refused():
+    from hydrojam.fem.newton import NewtonOptions, minimize
+
+    with pytest.raises(ValueError, match="fallback_start"):
+        minimize([_SaddleValley()], np.zeros((3, 1)), np.ones(3, dtype=bool), 1.0,
+                 NewtonOptions(fallback_start="sometimes"))
