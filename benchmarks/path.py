@@ -78,7 +78,10 @@ VARIANTS = {
     "projected_start": {"options": {"newton": {"fallback_start": "projected"}}},
     "remembered_start": {"options": {"newton": {"fallback_start": "remembered"}}},
     # the projected K factorised, then preconditioning conjugate gradients on the full K
+    "full_start": {"options": {"newton": {"fallback_start": "full"}}},
     "krylov": {"options": {"newton": {"fallback_start": "krylov"}}},
+    # the conjugate gradients only detect negative curvature; the full K factorised where they meet none
+    "krylov_detect": {"options": {"newton": {"fallback_start": "krylov_detect"}}},
     "lm_long_0.5": {"options": {"newton": {"marquardt_long_step": 0.5}}},
     "lm_long_0.25": {"options": {"newton": {"marquardt_long_step": 0.25}}},
     "rtol_1e-5": {"options": {"newton": {"rtol": 1e-5}}},

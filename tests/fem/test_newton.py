@@ -270,7 +270,7 @@ class _ProjectableSaddleValley(_SaddleValley):
 
 
 @pytest.mark.skipif(not _pardiso_available(), reason="the inertia comes from PARDISO")
-@pytest.mark.parametrize("start", ["full", "projected", "remembered", "krylov"])
+@pytest.mark.parametrize("start", ["full", "projected", "remembered", "krylov", "krylov_detect"])
 def test_every_fallback_start_heads_for_the_minimum(start):
     """With the inertia correction, wherever the projectable term starts (its full Hessian, its
     projection, the projection once needed, or the conjugate gradients on the full Hessian

@@ -20,6 +20,7 @@ tighter tolerance chases for hundreds of iterations without changing any result.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import time
 import warnings
@@ -114,8 +115,12 @@ class NewtonOptions:
     first attempt, as IPC does), "remembered" (full in a minimisation's first iteration, projected
     from the first attempt once an iteration of it needed the projection) or "krylov" (with
     ``definite``: the projected K is factorised first, then preconditions conjugate gradients on the
-    full K, whose solution is the direction unless they meet negative curvature). Each failed
-    attempt costs a factorisation."""
+    full K, whose solution is the direction unless they meet negative curvature) or
+    "krylov_detect" (the same conjugate gradients only detect the full K's negative curvature:
+    where they meet none, the full K is factorised and its solution taken if its inertia shows it
+    definite; the directions of "full" with fewer factorisations), or "auto": "krylov_detect" in
+    3D (positions of shape (n, 3), whose factorisations dominate an iteration), "full" otherwise.
+    Each failed attempt costs a factorisation."""
     krylov_iterations: int = 20
     """Conjugate-gradient iterations at most on the full K (``fallback_start="krylov"``)."""
 
@@ -261,7 +266,8 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
     """
     adaptive = options.projection == "adaptive"
     fallback = any(t.fallback_projection for t in terms)
-    krylov = options.fallback_start == "krylov" and options.definite and adaptive and fallback and not projected
+    krylov = (options.fallback_start in ("krylov", "krylov_detect") and options.definite and adaptive and fallback
+              and not projected)
     reach = _reach(terms, xs, fidx)
     eps = options.regularisation * hdiag.mean()
     tau, dx, slope, Hfull = lm, None, 0.0, Hff
@@ -286,11 +292,30 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
                 dx = cand
                 break
         tau = max(options.damping_growth * tau, options.definite_floor if indefinite else options.damping_floor)
-    if krylov and dx is not None and solver.negative_eigenvalues is not None:
-        full = _conjugate_gradients(Hfull + sp.diags(tau * hdiag + eps, format="csr"), g, r, solver, options)
+    detect = options.fallback_start == "krylov_detect"
+    if krylov and dx is not None and solver.negative_eigenvalues is not None and (tau == lm or not detect):
+        # "krylov_detect" follows "full": its full K is tried at the Marquardt damping only (the
+        # full K is the projected one less the contacts' negative curvature, so where the
+        # projected K needed more damping, the full one at lm is indefinite too)
+        K = Hfull + sp.diags(tau * hdiag + eps, format="csr")
+        full = _conjugate_gradients(K, g, r, solver, options)
+        if full is not None and detect:
+            full = _definite_solution(K, g, r, reach, solver, options)
         if full is not None:
             dx, slope, projected = full, float(g @ full), False
     return dx, slope, tau, projected
+
+
+def _definite_solution(K, g, r, reach, solver, options: NewtonOptions):
+    """The solution of K dx = -g by a factorisation, where K is positive definite by its inertia,
+    the solve is accurate and dx descends; None otherwise."""
+    try:
+        dx = solver.solve(K, -g, reach)
+    except LinearSolveError:
+        return None
+    if solver.negative_eigenvalues or np.linalg.norm(K @ dx + g) > options.linear_residual * r or g @ dx >= 0:
+        return None
+    return dx
 
 
 def _conjugate_gradients(K, g, r, solver, options: NewtonOptions):
@@ -485,9 +510,11 @@ def minimize(
     E = sum_energy(terms, x.reshape(shape))
     if not np.isfinite(E):
         return result(NewtonStatus.INADMISSIBLE_START, 0, np.inf)
-    if options.fallback_start not in ("full", "projected", "remembered", "krylov"):
-        raise ValueError(f"fallback_start must be full, projected, remembered or krylov, not "
-                         f"{options.fallback_start!r}")
+    if options.fallback_start not in ("full", "projected", "remembered", "krylov", "krylov_detect", "auto"):
+        raise ValueError(f"fallback_start must be full, projected, remembered, krylov, krylov_detect or auto, "
+                         f"not {options.fallback_start!r}")
+    if options.fallback_start == "auto":
+        options = dataclasses.replace(options, fallback_start="krylov_detect" if shape[-1] == 3 else "full")
     lm, projected = 0.0, options.fallback_start == "projected"
     for it in range(options.max_iter + 1):
         t0 = time.perf_counter()
