@@ -118,7 +118,8 @@ def mkl_provenance() -> dict:
         branch = get(1)  # MKL_CBWR_BRANCH
         result["cbwr"] = _MKL_BRANCHES.get(branch, f"{branch}")
         chosen = auto() if branch in (1, 2) else branch  # off or AUTO: MKL picks the branch itself
-        result["instruction_set"] = _MKL_BRANCHES.get(chosen, f"{chosen}")
+        # on some CPUs (seen on AMD EPYC) MKL's auto branch is AUTO itself: it does not tell
+        result["instruction_set"] = UNKNOWN if chosen in (1, 2) else _MKL_BRANCHES.get(chosen, f"{chosen}")
     except Exception:  # noqa: BLE001 - an old MKL without these functions: unknown
         pass
     return result
