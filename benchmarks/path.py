@@ -72,16 +72,18 @@ VARIANTS = {
     # the Marquardt damping decays to 1e-12 of diag|H| before it drops to 0 (instead of 1e-6)
     "lm_cutoff_1e-12": {"options": {"newton": {"marquardt_cutoff": 1e-12}}},
     "lm_decay_3": {"options": {"newton": {"marquardt_decay": 3.0}}},
-    # the Marquardt damping decays after any step of length 0.5 or more, not only after full steps
+    # the full Hessian's step wherever it descends, a negative eigenvalue or not (no inertia correction)
     "indefinite": {"options": {"newton": {"definite": False}}},
     # the contact Hessian projected from each iteration's first attempt / once a minimisation needed it
     "projected_start": {"options": {"newton": {"fallback_start": "projected"}}},
     "remembered_start": {"options": {"newton": {"fallback_start": "remembered"}}},
-    # the projected K factorised, then preconditioning conjugate gradients on the full K
+    # the full Hessian's K factorised first in 3D too (main's rule in 2D)
     "full_start": {"options": {"newton": {"fallback_start": "full"}}},
+    # the projected K factorised, then preconditioning conjugate gradients on the full K
     "krylov": {"options": {"newton": {"fallback_start": "krylov"}}},
     # the conjugate gradients only detect negative curvature; the full K factorised where they meet none
     "krylov_detect": {"options": {"newton": {"fallback_start": "krylov_detect"}}},
+    # the Marquardt damping decays after any step of length 0.5 or more, not only after full steps
     "lm_long_0.5": {"options": {"newton": {"marquardt_long_step": 0.5}}},
     "lm_long_0.25": {"options": {"newton": {"marquardt_long_step": 0.25}}},
     "rtol_1e-5": {"options": {"newton": {"rtol": 1e-5}}},

@@ -201,7 +201,7 @@ def test_the_inertia_correction_heads_for_the_minimum_where_newton_reaches_the_s
 
 
 def _spd(n, seed):
-    """A sparse symmetric positive definite matrix (a shifted graph Laplacian) and its scale."""
+    """A sparse symmetric positive definite matrix: a graph Laplacian plus I (eigenvalues >= 1)."""
     A = abs(_random(n, 0.05, seed))
     L = sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A
     return (L + sp.identity(n)).tocsr()

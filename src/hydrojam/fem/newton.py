@@ -122,7 +122,8 @@ class NewtonOptions:
     3D (positions of shape (n, 3), whose factorisations dominate an iteration), "full" otherwise.
     Each failed attempt costs a factorisation."""
     krylov_iterations: int = 20
-    """Conjugate-gradient iterations at most on the full K (``fallback_start="krylov"``)."""
+    """Conjugate-gradient iterations at most on the full K (``fallback_start`` "krylov" or
+    "krylov_detect")."""
 
 
 class NewtonStatus(enum.Enum):
@@ -280,12 +281,9 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
             Hff = _free_block(H, fidx)
             tau, projected = lm, True
         K = Hff + sp.diags(tau * hdiag + eps, format="csr")
-        try:
-            cand = solver.solve(K, -g, reach)
-        except LinearSolveError:
-            cand = None
+        cand = _accurate_solution(K, g, r, reach, solver, options)
         indefinite = False
-        if cand is not None and np.linalg.norm(K @ cand + g) <= options.linear_residual * r:
+        if cand is not None:
             slope = float(g @ cand)
             indefinite = options.definite and bool(solver.negative_eigenvalues)
             if (not adaptive or slope < 0) and not indefinite:
@@ -306,16 +304,21 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
     return dx, slope, tau, projected
 
 
-def _definite_solution(K, g, r, reach, solver, options: NewtonOptions):
-    """The solution of K dx = -g by a factorisation, where K is positive definite by its inertia,
-    the solve is accurate and dx descends; None otherwise."""
+def _accurate_solution(K, g, r, reach, solver, options: NewtonOptions):
+    """The solution of K dx = -g by a factorisation where the solve succeeds and
+    ||K dx + g|| <= linear_residual x r; None otherwise."""
     try:
         dx = solver.solve(K, -g, reach)
     except LinearSolveError:
         return None
-    if solver.negative_eigenvalues or np.linalg.norm(K @ dx + g) > options.linear_residual * r or g @ dx >= 0:
-        return None
-    return dx
+    return dx if np.linalg.norm(K @ dx + g) <= options.linear_residual * r else None
+
+
+def _definite_solution(K, g, r, reach, solver, options: NewtonOptions):
+    """:func:`_accurate_solution` where K is positive definite by its inertia and dx descends;
+    None otherwise."""
+    dx = _accurate_solution(K, g, r, reach, solver, options)
+    return None if dx is None or solver.negative_eigenvalues or g @ dx >= 0 else dx
 
 
 def _conjugate_gradients(K, g, r, solver, options: NewtonOptions):
