@@ -9,7 +9,10 @@ Marquardt update) and the linear solver, and records for every iteration
 - ``trials``: energy evaluations of the line search, ``dE`` [mJ]: the energy change,
 - ``step_max`` [mm]: the largest nodal move, ``stabilisation``: the damped term's scale (0 without),
 - ``pairs``: active contact collisions at the iterate, ``analysis``: whether the linear solve
-  analysed a new sparsity pattern.
+  analysed a new sparsity pattern, ``solves``: the factorisations the direction took,
+  ``negative``: the negative eigenvalues of its first K (1 where a Cholesky factorisation refused
+  it: at least one), ``substitutions``: solves on a factorisation already made, ``projected``:
+  whether the contact Hessian was projected in the accepted K.
 
 The summary says where the iterations went: capped steps (TOI locking), line-search cuts, and
 the tail (iterations within 100x of the tolerance's residual, chasing near-neutral modes).
@@ -22,7 +25,7 @@ import csv
 import numpy as np
 
 import hydrojam.fem.newton as newton
-from hydrojam.fem.linsolve import LinearSolver
+from hydrojam.fem.linsolve import LinearSolver, NotPositiveDefinite
 
 FIELDS = ("step", "residual", "tau", "cap", "alpha", "trials", "dE", "step_max", "stabilisation", "pairs",
           "analysis", "solves", "negative", "substitutions", "projected")
@@ -86,15 +89,20 @@ class IterationTrace:
             self.rows.append({k: row.get(k, "") for k in FIELDS})
             return update(lm, alpha, options)
 
-        def traced_solve(solver, K, b, reach=None):
+        def traced_solve(solver, K, b, reach=None, definite=False):
             before = solver.analyses
+            failed = False
             try:
-                return solve(solver, K, b, reach)
+                return solve(solver, K, b, reach, definite)
+            except NotPositiveDefinite:
+                failed = True
+                raise
             finally:
                 row["analysis"] = row.get("analysis", 0) + (solver.analyses - before)
                 row["solves"] = row.get("solves", 0) + 1
-                if row["solves"] == 1:
-                    row["negative"] = "" if solver.negative_eigenvalues is None else solver.negative_eigenvalues
+                if row["solves"] == 1:  # a failed Cholesky: at least one
+                    row["negative"] = 1 if failed else ("" if solver.negative_eigenvalues is None
+                                                        else solver.negative_eigenvalues)
 
         def traced_resolve(solver, b):
             row["substitutions"] = row.get("substitutions", 0) + 1

@@ -84,7 +84,7 @@ def record(design_name: str, limit: int, save: str | None = None) -> list:
     if save:
         Path(save).mkdir(parents=True, exist_ok=True)
 
-    def solve(self, K, b, reach=None):
+    def solve(self, K, b, reach=None, definite=False):
         if len(systems) >= limit:
             raise _Enough
         K = sp.csr_matrix(K)
@@ -94,11 +94,11 @@ def record(design_name: str, limit: int, save: str | None = None) -> list:
             path = Path(save) / f"{len(systems):05d}.npz"
             extra = {} if R is None else {"reach_indptr": R.indptr.astype(np.int64), "reach_indices": R.indices.astype(np.int32)}
             np.savez(path, data=K.data, indices=K.indices.astype(np.int32), indptr=K.indptr.astype(np.int64),
-                     b=np.asarray(b, dtype=float), shape=np.array(K.shape), **extra)
+                     b=np.asarray(b, dtype=float), shape=np.array(K.shape), definite=np.array(definite), **extra)
             systems.append(path)
         else:
-            systems.append((K.copy(), np.array(b, dtype=float), R))
-        return original(self, K, b, None if R is None else (lambda: R))
+            systems.append((K.copy(), np.array(b, dtype=float), R, definite))
+        return original(self, K, b, None if R is None else (lambda: R), definite)
 
     design = apply_overrides(default_design(), DESIGNS[design_name])
     linsolve.LinearSolver.solve = solve
@@ -122,8 +122,10 @@ def system(item) -> tuple:
 
 
 def recorded(item) -> tuple:
-    """(K, b, reach) of a recorded system: reach the contact's pattern within reach handed to
-    the solve (``LinearSolver.solve``), None where there was none or it was recorded without."""
+    """(K, b, reach, definite) of a recorded system: reach the contact's pattern within reach
+    handed to the solve (``LinearSolver.solve``), None where there was none or it was recorded
+    without; definite whether the solve asked for a positive definite K (False where recorded
+    without)."""
     if isinstance(item, tuple):
         return item
     with np.load(item) as z:
@@ -132,7 +134,8 @@ def recorded(item) -> tuple:
         if "reach_indptr" in z.files:
             ind = z["reach_indices"]
             reach = sp.csr_matrix((np.ones(len(ind)), ind, z["reach_indptr"]), shape=(n, n))
-        return sp.csr_matrix((z["data"], z["indices"], z["indptr"]), shape=(n, n)), z["b"], reach
+        definite = bool(z["definite"]) if "definite" in z.files else False
+        return sp.csr_matrix((z["data"], z["indices"], z["indptr"]), shape=(n, n)), z["b"], reach, definite
 
 
 def replay(systems, settings: dict[int, int]):
@@ -161,7 +164,7 @@ def replay(systems, settings: dict[int, int]):
     xs = []
     split = {True: [0.0, 0.0, 0], False: [0.0, 0.0, 0]}  # analysed -> [pardiso s, total s, count]
     for item in systems:
-        K, b, R = recorded(item)
+        K, b, R, _ = recorded(item)
         before = solver.analyses
         t0 = time.perf_counter()
         xs.append(solver.solve(K, b, None if R is None else (lambda: R)))
@@ -179,9 +182,10 @@ def best_of_two(systems, settings):
 
 
 ORDERINGS = {
-    "each pattern ordered afresh, no reach": {"reuse_ordering": False, "use_reach": False},
-    "last ordering reused, no reach": {"use_reach": False},
-    "last ordering reused, the reach (hydrojam)": {},
+    "each pattern ordered afresh, no reach": {"reuse_ordering": False, "use_reach": False, "use_cholesky": False},
+    "last ordering reused, no reach": {"use_reach": False, "use_cholesky": False},
+    "last ordering reused, the reach": {"use_cholesky": False},
+    "the same, Cholesky where a definite K is asked (hydrojam)": {},
 }
 
 
@@ -199,20 +203,26 @@ def orderings(systems, passes: int = 2) -> list[list[str]]:
         seconds = dict.fromkeys(solvers, 0.0)
         fill = {name: [] for name in solvers}
         residual = dict.fromkeys(solvers, 0.0)
+        refused = dict.fromkeys(solvers, 0)
         for item in systems:
-            K, b, R = recorded(item)
+            K, b, R, definite = recorded(item)
             reach = None if R is None else (lambda: R)
             for name, solver in solvers.items():
                 before = solver.analyses
                 t0 = time.perf_counter()
-                x = solver.solve(K, b, reach)
+                try:
+                    x = solver.solve(K, b, reach, definite)
+                except linsolve.NotPositiveDefinite:
+                    x = None
+                    refused[name] += 1
                 seconds[name] += time.perf_counter() - t0
-                if solver.analyses > before:
+                if solver.analyses > before and x is not None:
                     fill[name].append(solver._pardiso.factor_entries())
-                residual[name] = max(residual[name], np.linalg.norm(K @ x - b) / np.linalg.norm(b))
+                if x is not None:
+                    residual[name] = max(residual[name], np.linalg.norm(K @ x - b) / np.linalg.norm(b))
         for name, solver in solvers.items():
             row = [name, str(solver.calls), str(solver.analyses), str(solver.reorderings),
-                   str(solver.calls), fmt(np.mean(fill[name]) if fill[name] else None, 1e-6),
+                   str(solver.calls), str(refused[name]), fmt(np.mean(fill[name]) if fill[name] else None, 1e-6),
                    fmt(seconds[name] / solver.calls, 1e3), f"{residual[name]:.1e}"]
             if name not in best or seconds[name] < best[name][0]:
                 best[name] = (seconds[name], row)
@@ -265,7 +275,8 @@ def main(argv=None) -> None:
         print_load()
 
     section("3. Orderings of changing patterns (interleaved, the faster of two passes)")
-    print(table(["variant", "solves", "analyses", "orderings", "factorisations", "mean factor [M entries]",
+    print(table(["variant", "solves", "analyses", "orderings", "factorisations", "not definite (Cholesky)",
+                 "mean factor [M entries]",
                  "ms per solve", "max rel. residual"], orderings(systems)))
     print_load()
 

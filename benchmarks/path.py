@@ -93,6 +93,8 @@ VARIANTS = {
     "damped_from_step_start": {"options": {"damped_from_blocks": False}},
     # the linear solver without the contact term's reach pattern: the union of recent patterns
     "no_reach": {"solver": {"use_reach": False}},
+    # every factorisation an LDL^T, the definite ones too (main factorises those by Cholesky in 3D)
+    "ldlt": {"solver": {"use_cholesky": False}},
 }
 
 

@@ -244,6 +244,51 @@ def test_pardiso_reports_the_inertia_of_a_symmetric_indefinite_matrix(negative):
     assert scipy_solver.negative_eigenvalues is None
 
 
+def _with_inertia(negative: int, n: int = 40) -> sp.csr_matrix:
+    """Q diag(lam) Q^T with ``negative`` of its n eigenvalues negative, every |lam| in [0.1, 2]:
+    a dense pattern (more than ``_Pardiso.dense_row`` upper entries a row), far from a zero pivot."""
+    rng = np.random.default_rng(negative)
+    lam = rng.uniform(0.1, 2.0, n) * np.where(np.arange(n) < negative, -1.0, 1.0)
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    return sp.csr_matrix((Q * lam) @ Q.T)
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO (MKL) not installed")
+@pytest.mark.parametrize("negative", [1, 7])
+def test_a_definite_solve_refuses_an_indefinite_dense_matrix_and_solves_a_definite_one(negative):
+    """Asked for a positive definite K (``definite``) on a dense pattern, the solver factorises
+    by Cholesky: an indefinite K raises NotPositiveDefinite (a LinearSolveError), a definite one
+    is solved to 100 x eps x cond(K) relative to |x| against numpy's dense solve, with no
+    negative eigenvalue, and the LDL^T handle, used again for an indefinite K, still reports its
+    inertia."""
+    from hydrojam.fem.linsolve import NotPositiveDefinite
+
+    solver = LinearSolver("pardiso")
+    b = np.ones(40)
+    with pytest.raises(NotPositiveDefinite):
+        solver.solve(_with_inertia(negative), b, definite=True)
+    K = _with_inertia(0)
+    x = solver.solve(K, b, definite=True)
+    assert solver._pardiso.mtype == 2 and solver.negative_eigenvalues == 0
+    x_ref = np.linalg.solve(K.toarray(), b)
+    assert np.linalg.norm(x - x_ref) <= 100 * np.finfo(float).eps * np.linalg.cond(K.toarray()) * np.linalg.norm(x_ref)
+    assert np.allclose(solver.resolve(2 * b), 2 * x, rtol=0, atol=100 * np.finfo(float).eps * 40 * np.abs(x).max())
+    solver.solve(_with_inertia(negative), b)
+    assert solver._pardiso.mtype == -2 and solver.negative_eigenvalues == negative
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO (MKL) not installed")
+def test_a_definite_solve_on_a_sparse_pattern_keeps_the_ldlt():
+    """Below ``dense_row`` (2D patterns) a definite solve is an LDL^T solve as before: an
+    indefinite K is solved, and its inertia reported, not refused."""
+    n = 30
+    K = sp.diags([np.r_[-1.0, np.full(n - 1, 4.0)], np.ones(n - 1), np.ones(n - 1)], [0, 1, -1], format="csr")
+    solver = LinearSolver("pardiso")
+    x = solver.solve(K, np.ones(n), definite=True)
+    assert solver._pardiso.mtype == -2 and solver.negative_eigenvalues == 1
+    assert np.linalg.norm(K @ x - np.ones(n)) <= 1e-12 * np.sqrt(n) * np.linalg.cond(K.toarray())
+
+
 @pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
 def test_a_reused_ordering_solves_like_a_fresh_one(monkeypatch):
     """New dense patterns (``dense_row`` lowered so that these grid matrices count as dense)

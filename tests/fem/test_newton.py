@@ -270,16 +270,20 @@ class _ProjectableSaddleValley(_SaddleValley):
 
 
 @pytest.mark.skipif(not _pardiso_available(), reason="the inertia comes from PARDISO")
+@pytest.mark.parametrize("cholesky", [False, True])
 @pytest.mark.parametrize("start", ["full", "projected", "remembered", "krylov", "krylov_detect"])
-def test_every_fallback_start_heads_for_the_minimum(start):
+def test_every_fallback_start_heads_for_the_minimum(start, cholesky, monkeypatch):
     """With the inertia correction, wherever the projectable term starts (its full Hessian, its
     projection, the projection once needed, or the conjugate gradients on the full Hessian
     preconditioned by the projected one), Newton ends in the minimum u = 1, not on the saddle
     u = 0 that plain Newton reaches from there (the test above); within ten times the residual
-    tolerance over the curvature there."""
-    from hydrojam.fem.linsolve import LinearSolver
+    tolerance over the curvature there. With ``cholesky`` the pattern counts as dense (3D), so
+    the definite solves are Cholesky factorisations, which refuse an indefinite K."""
+    from hydrojam.fem.linsolve import LinearSolver, _Pardiso
     from hydrojam.fem.newton import NewtonOptions, minimize
 
+    if cholesky:
+        monkeypatch.setattr(_Pardiso, "dense_row", 0.5)
     x0 = np.array([[1.0], [0.1 / np.sqrt(2)], [0.1 / np.sqrt(2)]])
     term = _ProjectableSaddleValley()
     res = minimize([term], x0, np.ones(3, dtype=bool), 1.0,

@@ -26,6 +26,11 @@ class LinearSolveError(RuntimeError):
     """The linear system could not be solved (singular or not finite)."""
 
 
+class NotPositiveDefinite(LinearSolveError):
+    """A solve asked for a positive definite matrix (:meth:`LinearSolver.solve`'s ``definite``)
+    met a pivot that is not positive: the matrix has a negative (or zero) eigenvalue."""
+
+
 def _pardiso_available() -> bool:
     try:
         import pypardiso  # noqa: F401
@@ -37,8 +42,10 @@ def _pardiso_available() -> bool:
 class _Pardiso:
     """MKL PARDISO through pypardiso (pinned 0.4.7): every use of pypardiso's private functions
     and attributes (``_mkl_pardiso``, ``_call_pardiso``, ``pt``, ``iparm``, ``libmkl``) lives in
-    this class, so an upgrade is reviewed here. Real symmetric indefinite (mtype -2) on the upper
-    triangle, called with the 1-based index arrays of the pattern prepared once per pattern."""
+    this class, so an upgrade is reviewed here. Real symmetric indefinite (``mtype`` -2: LDL^T
+    with Bunch-Kaufman pivots, reporting the inertia) or positive definite (2: Cholesky, which
+    fails at the first pivot that is not positive) on the upper triangle, called with the
+    1-based index arrays of the pattern prepared once per pattern."""
 
     settings: dict[int, int] = {2: 0, 34: 1}
     """PARDISO's iparm (1-based index: value) over MKL's defaults for mtype -2 (pardisoinit):
@@ -76,7 +83,7 @@ class _Pardiso:
     """Path of the MKL runtime found by the first handle: later handles skip pypardiso's search
     of the whole environment for it (a recursive glob, about 0.1-0.3 s a handle)."""
 
-    def __init__(self, threads: int):
+    def __init__(self, threads: int, mtype: int = -2):
         import os
 
         import pypardiso
@@ -87,11 +94,12 @@ class _Pardiso:
         if path and "PYPARDISO_MKL_RT" not in os.environ:
             os.environ["PYPARDISO_MKL_RT"] = path  # read only by the constructor below
             try:
-                self._ps = pypardiso.PyPardisoSolver(mtype=-2)
+                self._ps = pypardiso.PyPardisoSolver(mtype=mtype)
             finally:
                 os.environ.pop("PYPARDISO_MKL_RT", None)
         else:
-            self._ps = pypardiso.PyPardisoSolver(mtype=-2)
+            self._ps = pypardiso.PyPardisoSolver(mtype=mtype)
+        self.mtype = mtype
         _Pardiso._mkl_rt = self._ps.libmkl._name
         self._ps.set_statistical_info_off()
         init = self._ps.libmkl.pardisoinit
@@ -194,8 +202,9 @@ class _Pardiso:
         self._ps.free_memory(everything=True)
 
     def negative_eigenvalues(self) -> int:
-        """Inertia of the last factorised matrix: its number of negative eigenvalues."""
-        return int(self._ps.get_iparm(23))
+        """Inertia of the last factorised matrix: its number of negative eigenvalues (0 after a
+        Cholesky factorisation, which exists only for a positive definite matrix)."""
+        return 0 if self.mtype == 2 else int(self._ps.get_iparm(23))
 
     def factor_entries(self) -> int:
         """Entries of the last analysis's factor (iparm(18)): its fill."""
@@ -274,6 +283,11 @@ class LinearSolver:
     ``_Pardiso.dense_row`` upper entries a row; False: the union of the patterns seen lately,
     as without a hint). 2D patterns keep the union of the patterns seen lately, and their bits
     (docs/solver.md, "A changing contact pattern")."""
+    use_cholesky: bool = True
+    """Whether a solve that asks for a positive definite matrix (``definite``) on a dense pattern
+    (3D) runs PARDISO's Cholesky (mtype 2) instead of its LDL^T (-2): a faster factorisation
+    that fails fast where the matrix is not positive definite, which is then all such a caller
+    needs to know (docs/solver.md, "Linear solver"). 2D patterns keep the LDL^T and their bits."""
     reorder_fill: float = 1.05
     """The ordering is computed afresh at the next analysis once the factor of an analysis on a
     reused ordering holds more than this times the entries per matrix entry of the analysis that
@@ -288,8 +302,9 @@ class LinearSolver:
         self.seconds = 0.0
         self.calls = 0
         self.analyses = 0
-        self._pardiso: _Pardiso | None = None
-        self._analysed = None
+        self._pardiso: _Pardiso | None = None  # the handle of the last solve
+        self._analysed = None  # the pattern key its analysis is of
+        self._parked: dict[int, tuple[_Pardiso, object]] = {}  # the other handle and its analysis, by mtype
         self._union: _UpperPattern | None = None
         self._gathers: list[_Gather] = []
         self._kept_patterns = 4
@@ -304,13 +319,23 @@ class LinearSolver:
         self.threads = positive_int("HYDROJAM_SOLVER_THREADS", 1)
         self.reuse_analysis = flag("HYDROJAM_REUSE_ANALYSIS", True)
 
-    def _solve_pardiso(self, K: sp.csr_matrix, b: np.ndarray, reach=None) -> np.ndarray:
+    def _take_handle(self, mtype: int) -> None:
+        """Make the PARDISO handle of ``mtype`` the current one (each keeps its own analysis)."""
+        if self._pardiso is not None and self._pardiso.mtype == mtype:
+            return
+        if self._pardiso is not None:
+            self._parked[self._pardiso.mtype] = (self._pardiso, self._analysed)
+        self._pardiso, self._analysed = self._parked.pop(mtype, (None, None))
         if self._pardiso is None:
-            self._pardiso = _Pardiso(self.threads)
+            self._pardiso = _Pardiso(self.threads, mtype)
+
+    def _solve_pardiso(self, K: sp.csr_matrix, b: np.ndarray, reach=None, definite: bool = False) -> np.ndarray:
         if not K.has_canonical_format:  # duplicates or unsorted: sum them as triu's COO route does
             K = sp.triu(K, format="csr")
             K.sort_indices()
         pattern, data = self._on_union_pattern(self._gather(K), K, reach)
+        cholesky = definite and self.use_cholesky and _Pardiso.is_dense(pattern.nnz, pattern.n)
+        self._take_handle(2 if cholesky else -2)
         if pattern.empty_row:  # PARDISO would crash on it (pypardiso refuses it too)
             raise LinearSolveError("pardiso: matrix is singular (an empty row)")
         # The symbolic analysis (ordering) depends only on the sparsity pattern: reuse it while the
@@ -333,6 +358,9 @@ class LinearSolver:
         except self._pardiso.error as exc:  # a failed factorisation (zero pivot, ...)
             if not reuse:  # the handle was released for this pattern: nothing analysed to reuse
                 self._analysed = None
+            self.negative_eigenvalues = None
+            if cholesky:
+                raise NotPositiveDefinite(f"pardiso (Cholesky): {exc}") from exc
             raise LinearSolveError(f"pardiso: {exc}") from exc
         self._analysed = pattern.key
         if not reuse:
@@ -466,7 +494,8 @@ class LinearSolver:
             self._ordered_fill_of = (int(tail[0]), int(tail[1]))
         self._union.hinted = len(tail) == 3 and bool(tail[2])
 
-    def solve(self, K: sp.spmatrix, b: np.ndarray, reach: Callable[[], sp.spmatrix] | None = None) -> np.ndarray:
+    def solve(self, K: sp.spmatrix, b: np.ndarray, reach: Callable[[], sp.spmatrix] | None = None,
+              definite: bool = False) -> np.ndarray:
         """Solution u of K u = b.
 
         Parameters
@@ -482,6 +511,11 @@ class LinearSolver:
             analysis did not have; the new analysis is then made on K's pattern and this one
             together, so that the next matrices within it reuse it. A hint for the factorisation's
             bookkeeping: the solution does not depend on it.
+        definite : bool, optional
+            The caller needs K positive definite and has no use for a solution otherwise (a
+            Newton step with the inertia correction): on dense patterns (3D) K is factorised by
+            Cholesky (:attr:`use_cholesky`), and a K that is not positive definite raises
+            :class:`NotPositiveDefinite` instead of being solved.
 
         Returns
         -------
@@ -492,12 +526,14 @@ class LinearSolver:
         LinearSolveError
             If K is singular (the factorisation fails) or u is not finite. Anything else (a wrong
             shape, a bug) propagates as it is.
+        NotPositiveDefinite
+            With ``definite``, where the Cholesky factorisation meets a pivot that is not positive.
         """
         t0 = time.perf_counter()
         K = sp.csr_matrix(K, dtype=np.float64)
         b = np.asarray(b, dtype=np.float64)
         try:
-            x = self._solve_pardiso(K, b, reach) if self.method == "pardiso" else self._solve_scipy(K, b)
+            x = self._solve_pardiso(K, b, reach, definite) if self.method == "pardiso" else self._solve_scipy(K, b)
         finally:
             self.seconds += time.perf_counter() - t0
             self.calls += 1

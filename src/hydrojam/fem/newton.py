@@ -31,7 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
+from hydrojam.fem.linsolve import LinearSolver, LinearSolveError, NotPositiveDefinite
 from hydrojam.fem.terms import EnergyTerm
 
 _TINY = 1e-300  # keeps the scaled gradient step finite when the Hessian's diagonal is all zero
@@ -281,8 +281,7 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
             Hff = _free_block(H, fidx)
             tau, projected = lm, True
         K = Hff + sp.diags(tau * hdiag + eps, format="csr")
-        cand = _accurate_solution(K, g, r, reach, solver, options)
-        indefinite = False
+        cand, indefinite = _accurate_solution(K, g, r, reach, solver, options)
         if cand is not None:
             slope = float(g @ cand)
             indefinite = options.definite and bool(solver.negative_eigenvalues)
@@ -305,19 +304,23 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
 
 
 def _accurate_solution(K, g, r, reach, solver, options: NewtonOptions):
-    """The solution of K dx = -g by a factorisation where the solve succeeds and
-    ||K dx + g|| <= linear_residual x r; None otherwise."""
+    """(dx, indefinite): the solution of K dx = -g by a factorisation where the solve succeeds and
+    ||K dx + g|| <= linear_residual x r, None otherwise; indefinite where the inertia correction
+    (``options.definite``) asked the solver for a positive definite K and it found it is not one
+    (a failed Cholesky factorisation: the solution is not needed then)."""
     try:
-        dx = solver.solve(K, -g, reach)
+        dx = solver.solve(K, -g, reach, definite=options.definite)
+    except NotPositiveDefinite:
+        return None, True
     except LinearSolveError:
-        return None
-    return dx if np.linalg.norm(K @ dx + g) <= options.linear_residual * r else None
+        return None, False
+    return (dx if np.linalg.norm(K @ dx + g) <= options.linear_residual * r else None), False
 
 
 def _definite_solution(K, g, r, reach, solver, options: NewtonOptions):
     """:func:`_accurate_solution` where K is positive definite by its inertia and dx descends;
     None otherwise."""
-    dx = _accurate_solution(K, g, r, reach, solver, options)
+    dx, _ = _accurate_solution(K, g, r, reach, solver, options)
     return None if dx is None or solver.negative_eigenvalues or g @ dx >= 0 else dx
 
 
