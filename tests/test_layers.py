@@ -1,7 +1,7 @@
 """The package's shape (DESIGN.md section 9): data flows one way through the layers, no import
 cycles, light imports stay light, and no module changes a user's matplotlib backend.
 
-Layers, lowest first: the shared helpers (``_io``, ``_validation``, ``_format``, ``_lazy``) < ``materials`` < ``fem`` <
+Layers, lowest first: the shared helpers (``_version``, ``_io``, ``_validation``, ``_format``, ``_lazy``) < ``materials`` < ``fem`` <
 ``actuator`` < ``study`` < ``assess`` < ``paper`` < ``cli``. A module may import its own layer and the ones
 below, never one above. Imports inside functions count too: a lazy import is still a dependency.
 """
@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "hydrojam"
-LAYERS = ["_io", "_validation", "_format", "_lazy", "materials", "fem", "actuator", "study", "assess", "paper", "cli"]
-RANK = {"_io": 0, "_validation": 0, "_format": 0, "_lazy": 0, "materials": 1, "fem": 2, "actuator": 3, "study": 4, "assess": 5, "paper": 6, "cli": 7}
+LAYERS = ["_version", "_io", "_validation", "_format", "_lazy", "materials", "fem", "actuator", "study", "assess", "paper", "cli"]
+RANK = {"_version": 0, "_io": 0, "_validation": 0, "_format": 0, "_lazy": 0, "materials": 1, "fem": 2, "actuator": 3, "study": 4, "assess": 5, "paper": 6, "cli": 7}
 
 
 def _module_name(path: Path) -> str:
@@ -145,3 +145,14 @@ def test_layout_names_every_module():
     assert not extra, f"docs/api/index.md's layout section names modules that do not exist: {extra}"
     packages = {p.parent.name for p in SRC.rglob("__init__.py") if p.parent != SRC}
     assert all(f"{pkg}/" in block for pkg in packages), f"subpackages missing: {packages}"
+
+
+def test_the_version_is_defined_once_and_matches_the_package_metadata():
+    """``hydrojam.__version__`` is ``hydrojam._version``'s, and pyproject.toml states the same."""
+    import tomllib
+
+    import hydrojam
+    from hydrojam._version import __version__
+
+    pyproject = tomllib.loads((SRC.parents[1] / "pyproject.toml").read_text())
+    assert hydrojam.__version__ == __version__ == pyproject["project"]["version"]

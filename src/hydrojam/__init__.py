@@ -5,7 +5,7 @@ elastomer chamber). Units: mm, MPa, mJ, K; chemical potential in k_B T.
 ipctk (the model, the simulation, studies) are imported on first use.
 """
 
-__version__ = "0.1.0"
+from hydrojam._version import __version__
 
 from hydrojam.actuator.design import Design, DesignError, apply_overrides, default_design, load_design, write_design
 from hydrojam.materials.energies import KT_OVER_NU_MPA, Hydrogel, HydrogelParams, Material, MaterialResponse, NeoHookean, Yeoh

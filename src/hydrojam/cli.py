@@ -51,7 +51,7 @@ class InputError(Exception):
 
 def _print_version(value: bool) -> None:
     if value:
-        from hydrojam import __version__
+        from hydrojam._version import __version__
 
         print(f"hydrojam {__version__}")
         raise typer.Exit()

@@ -264,7 +264,7 @@ def simulate(
     if resume is None:
         record(0.0, model.mesh.points, 0)
     else:
-        from hydrojam import __version__
+        from hydrojam._version import __version__
 
         states.extend(checkpoint_states(resume))
         ratio[0] = resume.energy_ratio

@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from hydrojam import __version__
+from hydrojam._version import __version__
 from hydrojam._format import duration
 from hydrojam._io import write_text_atomic
 from hydrojam.actuator.design import Design

@@ -136,7 +136,7 @@ def _write_record(point_dir: Path, record: dict) -> None:
 
 def _record(key: str, status: str, error: str | None, metrics: dict | None, wall: float | None,
             point_time: float | None) -> dict:
-    from hydrojam import __version__
+    from hydrojam._version import __version__
 
     return finite_or_none({"key": key, "status": status, "error": error, "metrics": metrics, "wall_time_s": wall,
                        "point_time_s": point_time, "hydrojam_version": __version__})
