@@ -259,7 +259,7 @@ class Study(BaseModel):
         try:
             return Study(name=self.name, base=with_replicas(self.base, count), sweeps=self.sweeps)
         except ValidationError as err:
-            raise StudyError(_one_line(err, Study, "")) from None
+            raise StudyError(_validation_message(err, Study, "")) from None
 
     def varied_fields(self) -> list[str]:
         """The dotted fields varied anywhere in the study, in order of first appearance."""
@@ -269,7 +269,9 @@ class Study(BaseModel):
 # -------------------------------------------------------------------- reading
 
 
-def _one_line(err: ValidationError, model: type[BaseModel], prefix: str) -> str:
+def _validation_message(err: ValidationError, model: type[BaseModel], prefix: str) -> str:
+    """``prefix`` and the one-line message for err's first error (pydantic): the field and its
+    allowed range, as every refusal of a study or sweep file reads."""
     e = err.errors()[0]
     loc = e["loc"]
     if e["type"] in ("value_error", "assertion_error") and (not loc or loc[0] in ("name", "vary")):
@@ -296,7 +298,7 @@ def _sweep_from_dict(raw: Any, i: int) -> SweepSpec:
     try:
         return SweepSpec.model_validate(raw, strict=True)
     except ValidationError as err:
-        raise StudyError(_one_line(err, SweepSpec, f"{label}: ")) from None
+        raise StudyError(_validation_message(err, SweepSpec, f"{label}: ")) from None
 
 
 def study_from_dict(data: dict, root: str | os.PathLike | None = None) -> Study:
@@ -355,7 +357,7 @@ def study_from_dict(data: dict, root: str | os.PathLike | None = None) -> Study:
     try:
         return Study(name=name, base=base, sweeps=sweeps)
     except ValidationError as err:
-        raise StudyError(_one_line(err, Study, "")) from None
+        raise StudyError(_validation_message(err, Study, "")) from None
 
 
 def load_study(path: str | os.PathLike) -> Study:

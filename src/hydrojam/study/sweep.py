@@ -126,7 +126,8 @@ def run_point(design: Design, point_dir: Path) -> dict:
     return metrics
 
 
-def _one_line(text: str) -> str:
+def _single_line(text: str) -> str:
+    """text on one line: each run of whitespace (newlines too) one space (a point's error record)."""
     return " ".join(str(text).split())
 
 
@@ -163,11 +164,11 @@ def _execute(point_fn: Callable[[Design, Path], dict], design: Design, point_dir
     except Exception as err:  # a failing point never stops the others
         elapsed = time.perf_counter() - t0
         write_text_atomic(folder / "error.txt", traceback.format_exc())
-        record = _record(key, "failed", _one_line(f"{type(err).__name__}: {err}"), None, elapsed, elapsed)
+        record = _record(key, "failed", _single_line(f"{type(err).__name__}: {err}"), None, elapsed, elapsed)
     else:
         elapsed = time.perf_counter() - t0
         converged = metrics.get("converged", True) is not False
-        error = None if converged else _one_line(metrics.get("message") or "the solver stopped early")
+        error = None if converged else _single_line(metrics.get("message") or "the solver stopped early")
         wall = metrics.get("wall_time_s")
         wall = wall if isinstance(wall, (int, float)) and not isinstance(wall, bool) else elapsed
         record = _record(key, "ok" if converged else "not_converged", error, metrics, wall, elapsed)
@@ -531,7 +532,7 @@ def _check_address(address: str) -> None:
             get_address_host_port(address)
     except ValueError as err:
         raise SchedulerError(
-            f"{address}: not a scheduler address, e.g. tcp://10.0.0.5:8786 ({_one_line(err)})") from None
+            f"{address}: not a scheduler address, e.g. tcp://10.0.0.5:8786 ({_single_line(err)})") from None
 
 
 def _connect(address: str):
@@ -541,7 +542,7 @@ def _connect(address: str):
     try:
         return Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
     except (OSError, ValueError, TypeError) as err:
-        raise SchedulerError(f"{address}: cannot connect within {CONNECT_TIMEOUT_S:g} s ({_one_line(err)})") from None
+        raise SchedulerError(f"{address}: cannot connect within {CONNECT_TIMEOUT_S:g} s ({_single_line(err)})") from None
 
 
 def _local_cluster(n_workers: int):
@@ -841,7 +842,7 @@ def _compute(client, groups, pending, out, point_fn, records, on_point, done, to
                     _write_record(folder, rec)
             else:  # the worker died or the task was lost: record it as a failed point
                 exc = fut.exception() if fut.status == "error" else None
-                error = _one_line(f"{type(exc).__name__}: {exc}") if exc is not None else f"task {fut.status}"
+                error = _single_line(f"{type(exc).__name__}: {exc}") if exc is not None else f"task {fut.status}"
                 rec = _record(key, "failed", error, None, None, None)
                 folder.mkdir(parents=True, exist_ok=True)
                 _write_record(folder, rec)
