@@ -22,7 +22,7 @@ from rich.table import Table
 
 from hydrojam._io import make_folder
 from hydrojam._validation import describe_error, is_non_finite, non_finite_message
-from hydrojam.materials.energies import HydrogelParams
+from hydrojam.materials.energies import WATER_RANGE_K, HydrogelParams
 from hydrojam.materials.swelling import swelling_curve
 
 try:  # typer >= 0.2x vendors its own click; Abort and Exit are typer's own in both cases
@@ -30,7 +30,7 @@ try:  # typer >= 0.2x vendors its own click; Abort and Exit are typer's own in b
 except ImportError:  # pragma: no cover - older typer on top of click
     from click import exceptions as _click_exc
 
-T_MIN_WATER, T_MAX_WATER = 273.15, 373.15
+T_MIN_WATER, T_MAX_WATER = WATER_RANGE_K
 
 #: most temperatures `hydrojam swell` computes in one call (a range with a tiny --t-step would
 #: otherwise run for minutes and fill the memory before printing anything)

@@ -24,7 +24,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from hydrojam._io import read_toml, write_text_atomic
 from hydrojam._validation import explain_error, field_range, field_unit, non_finite_message, submodel
-from hydrojam.materials.energies import HydrogelParams, NeoHookean, Yeoh
+from hydrojam.materials.energies import WATER_RANGE_K, HydrogelParams, NeoHookean, Yeoh
 from hydrojam.materials.kinetics import DEFAULT_DIFFUSIVITY
 
 _REL_TOL = 1e-9  # relative slack of the fit checks: a derived cavity fits exactly
@@ -116,8 +116,6 @@ class ElastomerSpec(BaseModel):
         return NeoHookean(shear_modulus=self.shear_modulus, poisson_ratio=self.poisson_ratio)
 
 
-#: water is liquid between these temperatures [K] (at 1 atm): the range of every temperature
-WATER_RANGE_K = (273.15, 373.15)
 #: most points a schedule may have (a schedule is a few steps, ramps or cycles, not a data log)
 MAX_SCHEDULE_POINTS = 1000
 #: largest schedule time [s] (about 30 years: anything longer is a unit mistake)
@@ -155,7 +153,7 @@ class StimulusSpec(BaseModel):
 
     model_config = _CONFIG
 
-    temperature: float = Field(275.0, ge=273.15, le=373.15, description="target temperature T [K]")
+    temperature: float = Field(275.0, ge=WATER_RANGE_K[0], le=WATER_RANGE_K[1], description="target temperature T [K]")
     mu: float = Field(0.0, le=0.0, description="target solvent chemical potential mu; 0 = pure water [kT]")
     path: Literal["swelling", "linear"] = Field(
         "swelling",
@@ -165,7 +163,8 @@ class StimulusSpec(BaseModel):
     schedule: tuple[tuple[float, float], ...] | None = Field(
         None,
         description="time-resolved temperature: [[t_s, T_K], ...], times strictly increasing from 0, "
-        "T in [273.15, 373.15] K, 2 to 1000 points, linear in between; replaces temperature [s, K]",
+        f"T in [{WATER_RANGE_K[0]}, {WATER_RANGE_K[1]}] K, 2 to {MAX_SCHEDULE_POINTS} points, linear in between; "
+        "replaces temperature [s, K]",
     )
 
     @model_validator(mode="before")

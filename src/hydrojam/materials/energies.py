@@ -32,6 +32,8 @@ KT_OVER_NU_MPA = 40.0
 """Stress unit of the gel model, k_B T / nu [MPa] (paper: 4e7 Pa)."""
 
 # Cai & Suo (2011) fit of chi(T, J) for PNIPAM; the paper rounds B0 to 0.0449.
+#: water is liquid between these temperatures [K] (at 1 atm): the range of every temperature
+WATER_RANGE_K = (273.15, 373.15)
 A0_DEFAULT = -12.947
 B0_DEFAULT = 0.04496
 A1_DEFAULT = 17.92
@@ -490,7 +492,7 @@ class HydrogelParams(_Frozen):
 
     n: float = Field(0.01, gt=0, le=1.0, description="N nu: polymer chains per solvent-molecule volume [-]")
     lambda0: float = Field(1.5, gt=1.0, le=10.0, description="as-prepared free-swelling stretch lambda0 [-]")
-    T0: float = Field(300.0, ge=273.15, le=373.15, description="temperature of the as-prepared state T0 [K]")
+    T0: float = Field(300.0, ge=WATER_RANGE_K[0], le=WATER_RANGE_K[1], description="temperature of the as-prepared state T0 [K]")
     A0: float = Field(A0_DEFAULT, description="chi coefficient A0 [-]")
     B0: float = Field(B0_DEFAULT, description="chi coefficient B0 [1/K]")
     A1: float = Field(A1_DEFAULT, description="chi coefficient A1 [-]")

@@ -12,7 +12,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from hydrojam._io import atomic_path
-from hydrojam.materials.energies import HydrogelParams
+from hydrojam.materials.energies import WATER_RANGE_K, HydrogelParams
 from hydrojam.materials.swelling import SwellingState, Transition, swelling_curve
 
 
@@ -43,7 +43,7 @@ def plot_swelling_curve(
     """
     Ts = np.array([p.T for p in points])
     lo, hi = min(Ts.min(), transition.T) - 2.0, max(Ts.max(), transition.T) + 2.0
-    lo, hi = max(lo, 273.15), min(hi, 373.15)
+    lo, hi = max(lo, WATER_RANGE_K[0]), min(hi, WATER_RANGE_K[1])
     dense = np.linspace(lo, hi, 241)
     _, curve = swelling_curve(params, mu, dense)
     fig = Figure(figsize=(6.4, 4.2), layout="constrained")

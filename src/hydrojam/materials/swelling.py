@@ -17,6 +17,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from hydrojam.materials.energies import (  # noqa: F401 - nominal_stresses, reference_chemical_potential are part of this API
+    WATER_RANGE_K,
     HydrogelParams,
     gel_psi,
     mixing_g,
@@ -165,7 +166,7 @@ def _equilibrium(params, mu, T, held, T_c):
     return SwellingState(T, mu, t, t / params.lambda0, J, branch, w, len(mins) > 1)
 
 
-def transition_temperature(params: HydrogelParams, mu: float = 0.0, T_range=(273.15, 373.15)) -> Transition:
+def transition_temperature(params: HydrogelParams, mu: float = 0.0, T_range=WATER_RANGE_K) -> Transition:
     """Volume phase transition temperature [K] of the free gel at chemical potential mu [k_B T].
 
     Where two minima coexist the transition is the Maxwell temperature (equal energies); where the
