@@ -31,9 +31,10 @@ from pydantic import BaseModel, ConfigDict, Field
 KT_OVER_NU_MPA = 40.0
 """Stress unit of the gel model, k_B T / nu [MPa] (paper: 4e7 Pa)."""
 
-# Cai & Suo (2011) fit of chi(T, J) for PNIPAM; the paper rounds B0 to 0.0449.
 #: water is liquid between these temperatures [K] (at 1 atm): the range of every temperature
 WATER_RANGE_K = (273.15, 373.15)
+
+# Cai & Suo (2011) fit of chi(T, J) for PNIPAM; the paper rounds B0 to 0.0449.
 A0_DEFAULT = -12.947
 B0_DEFAULT = 0.04496
 A1_DEFAULT = 17.92
