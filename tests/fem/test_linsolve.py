@@ -259,8 +259,8 @@ def test_a_definite_solve_refuses_an_indefinite_dense_matrix_and_solves_a_defini
     """Asked for a positive definite K (``definite``) on a dense pattern, the solver factorises
     by Cholesky: an indefinite K raises NotPositiveDefinite (a LinearSolveError), a definite one
     is solved to 100 x eps x cond(K) relative to |x| against numpy's dense solve, with no
-    negative eigenvalue, and the LDL^T handle, used again for an indefinite K, still reports its
-    inertia."""
+    negative eigenvalue, reusing the analysis that the refused matrix of the same pattern made,
+    and the LDL^T handle, used again for an indefinite K, still reports its inertia."""
     from hydrojam.fem.linsolve import NotPositiveDefinite
 
     solver = LinearSolver("pardiso")
@@ -270,6 +270,7 @@ def test_a_definite_solve_refuses_an_indefinite_dense_matrix_and_solves_a_defini
     K = _with_inertia(0)
     x = solver.solve(K, b, definite=True)
     assert solver._pardiso.mtype == 2 and solver.negative_eigenvalues == 0
+    assert solver.analyses == 1
     x_ref = np.linalg.solve(K.toarray(), b)
     assert np.linalg.norm(x - x_ref) <= 100 * np.finfo(float).eps * np.linalg.cond(K.toarray()) * np.linalg.norm(x_ref)
     assert np.allclose(solver.resolve(2 * b), 2 * x, rtol=0, atol=100 * np.finfo(float).eps * 40 * np.abs(x).max())

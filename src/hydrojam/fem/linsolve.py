@@ -115,6 +115,10 @@ class _Pardiso:
         self._refinement = int(self._ps.iparm[7])  # iparm(8): pardisoinit's, or the settings'
         self._dense = False  # whether the pattern last analysed is dense
         self._factorised: tuple | None = None  # (data, ia, ja) of the last factorisation
+        self.analysis_kept = False
+        """Whether the last call that analysed a pattern left its analysis in the handle (also
+        where its factorisation then failed: the Cholesky's analysis runs apart, so that a matrix
+        refused as not definite leaves it for the next matrix of the pattern)."""
         setter = getattr(self._ps.libmkl, "MKL_Set_Num_Threads", None)
         if setter is not None:
             setter(ctypes.c_int(threads))
@@ -123,7 +127,8 @@ class _Pardiso:
               reuse_analysis: bool, ordering: np.ndarray | None = None, keep_ordering: bool = False) -> np.ndarray:
         """Solution for the upper triangle given as CSR ``data`` with 1-based int32 ``ia``
         (row pointers) and ``ja`` (sorted column indices): phase 23 (numerical factorisation +
-        solve) reusing the last analysis, or 13 (analysis too). An analysis takes ``ordering``
+        solve) reusing the last analysis, or 13 (analysis too; for the Cholesky, 11 and then 23,
+        see :attr:`analysis_kept`). An analysis takes ``ordering``
         (a fill-reducing permutation of these n unknowns, PARDISO's ``perm``) as its ordering
         (iparm(5) = 1: only the symbolic factorisation runs) or, None, computes one (iparm(2)),
         left in :attr:`ordering` where ``keep_ordering`` (iparm(5) = 2; else iparm(5) = 0 and
@@ -153,7 +158,14 @@ class _Pardiso:
         refine_later = self._dense and not self.dense_refinement
         ps.iparm[7] = 0 if refine_later else self._refinement
         self._factorised = None
-        x = self._call(23 if reuse_analysis else 13, data, ia, ja, b)
+        phase = 23 if reuse_analysis else 13
+        if not reuse_analysis:
+            self.analysis_kept = False
+            if self.mtype == 2:
+                self._call(11, data, ia, ja, b)
+                self.analysis_kept, phase = True, 23
+        x = self._call(phase, data, ia, ja, b)
+        self.analysis_kept = True
         ps.iparm[4] = 0  # the numerical phases of later calls ignore perm either way
         if refine_later and self._refinement and ps.iparm[13] > 0:  # perturbed pivots: refine
             ps.iparm[7] = self._refinement
@@ -356,22 +368,29 @@ class LinearSolver:
         try:
             x = self._pardiso.solve(data, pattern.ia, pattern.ja, b, reuse, ordering, keep)
         except self._pardiso.error as exc:  # a failed factorisation (zero pivot, ...)
-            if not reuse:  # the handle was released for this pattern: nothing analysed to reuse
-                self._analysed = None
+            if not reuse:  # the handle was released for this pattern: its analysis, if it was kept
+                self._analysed = pattern.key if self._pardiso.analysis_kept else None
+                if self._pardiso.analysis_kept:
+                    self._count_analysis(pattern, ordering)
             self.negative_eigenvalues = None
             if cholesky:
                 raise NotPositiveDefinite(f"pardiso (Cholesky): {exc}") from exc
             raise LinearSolveError(f"pardiso: {exc}") from exc
         self._analysed = pattern.key
         if not reuse:
-            entries = self._pardiso.factor_entries()
-            if ordering is None:
-                self.reorderings += 1
-                self._ordering, self._ordered_fill_of = self._pardiso.ordering, (entries, pattern.nnz)  # None unless kept
-            elif entries * self._ordered_fill_of[1] > self.reorder_fill * self._ordered_fill_of[0] * pattern.nnz:
-                self._ordering = None  # the next analysis orders afresh
+            self._count_analysis(pattern, ordering)
         self.negative_eigenvalues = self._pardiso.negative_eigenvalues()
         return x
+
+    def _count_analysis(self, pattern: _UpperPattern, ordering: np.ndarray | None) -> None:
+        """After an analysis of ``pattern`` on ``ordering`` (None: one computed): keep a computed
+        ordering and its fill, or drop a reused one whose fill grew past ``reorder_fill``."""
+        entries = self._pardiso.factor_entries()
+        if ordering is None:
+            self.reorderings += 1
+            self._ordering, self._ordered_fill_of = self._pardiso.ordering, (entries, pattern.nnz)  # None unless kept
+        elif entries * self._ordered_fill_of[1] > self.reorder_fill * self._ordered_fill_of[0] * pattern.nnz:
+            self._ordering = None  # the next analysis orders afresh
 
     def _solve_scipy(self, K: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         self.negative_eigenvalues = None
