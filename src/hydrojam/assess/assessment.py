@@ -81,7 +81,7 @@ def _ratio(a, b):
 def check_assessable(design: Design) -> None:
     """Refuse, before any work, a design that :func:`assess` cannot assess (DesignError naming the
     field): a 3D one, since the empty chamber, the vacuum's outer surface and the contact pressure
-    on the membrane are built for 2D only (docs/assess.md, "What is left")."""
+    on the membrane are built for 2D only (docs/assess.md, "Limitations")."""
     check_supported(design)
     if design.dimension != 2:
         raise DesignError(f"dimension: allowed for an assessment: 2 (got {design.dimension}): the empty chamber, "

@@ -94,8 +94,8 @@ def tangent_stiffness(structure: Structure, x: np.ndarray, component: int = 0) -
     k = 1 / (w^T K^-1 w) with K the exact Hessian of all terms over the free DOFs (not projected:
     at a stable equilibrium it is the stiffness the next small load meets) and w the nodal
     weights of the face. No regularisation: Newton's (1e-9 mean |diag K| on every DOF) acts as
-    a ground spring under every node, which on a soft slender structure is not small (measured:
-    it doubled a 100 mm bilayer cantilever's stiffness). The near-free rotations of
+    a ground spring under every node, which on a soft slender structure is not small
+    (docs/assess.md, "What is computed"). The near-free rotations of
     frictionless round particles are left to the factorisation's pivoting: a tip load does not
     excite them. RuntimeError where x is not a stable equilibrium (compliance <= 0)."""
     compliance = tip_compliance(structure, x, component)
