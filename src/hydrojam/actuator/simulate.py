@@ -33,7 +33,7 @@ STABILISATION = 0.01
 #: load-path settings for actuators: many contacts change during a step, so a step may take
 #: many Newton iterations; a long attempt is cheaper than halving the step and starting over.
 #: A step of up to 30 iterations counts as easy (the next one grows): with the generic 6 the
-#: increment never grew again after one halving (19 layers: 0.003 for hundreds of steps).
+#: increment of a long chamber never grew again after one halving.
 #: A step is first tried undamped, in up to 3 blocks of 200 iterations, before the damping
 #: comes in, from where the blocks stopped (docs/solver.md, "Undamped first").
 ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=30,
@@ -353,7 +353,7 @@ def _release(problem, stab, x, options: PathOptions, terms, timings: Timings,
     """Take the stabilisation off at s = 1 (:func:`hydrojam.fem.path.release`, ``options.release``),
     for a path that did not release it at every step. Returns (x, Newton iterations, released,
     rounds); ``on_round(checkpoint)`` after every round, ``resume``: such a checkpoint."""
-    solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: PARDISO's set-up costs 0.4 s
+    solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: each PARDISO handle's set-up costs
     state = None
     if resume is not None:
         state = ReleaseState(resume.x, resume.iterations, resume.scale, resume.failed, resume.rounds,

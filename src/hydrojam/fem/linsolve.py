@@ -4,8 +4,8 @@ The Newton matrices are symmetric, so PARDISO runs as a real symmetric indefinit
 (``mtype = -2``) on the upper triangle: half the fill and work of the general LU.
 
 MKL runs single-threaded unless ``HYDROJAM_SOLVER_THREADS`` says otherwise: its OpenMP threads
-spin-wait, and with another busy process on a 2-core machine (a sweep's second worker, a test
-run) a 4k-DOF solve took 0.46 s instead of 0.02 s.
+spin-wait, and beside another busy process (a sweep's second worker) a solve then slows down
+many times over (docs/solver.md, "Linear solver").
 """
 
 from __future__ import annotations
@@ -81,7 +81,7 @@ class _Pardiso:
 
     _mkl_rt: str | None = None
     """Path of the MKL runtime found by the first handle: later handles skip pypardiso's search
-    of the whole environment for it (a recursive glob, about 0.1-0.3 s a handle)."""
+    of the whole environment for it (a recursive glob)."""
 
     def __init__(self, threads: int, mtype: int = -2):
         import os
@@ -288,8 +288,7 @@ class LinearSolver:
     ordered by METIS) is analysed with the last fill-reducing ordering (PARDISO's iparm(5) = 1)
     instead of computing one: METIS's ordering is about half of an analysis, and a few new
     contact couplings hardly change what a good one is (docs/solver.md, "Linear solver"). 2D
-    patterns (minimum degree, a cheap ordering: 5% of a solve measured) keep computing theirs,
-    and their bits."""
+    patterns (minimum degree, a cheap ordering) keep computing theirs, and their bits."""
     use_reach: bool = True
     """Whether :meth:`solve` heeds its ``reach`` hint for dense patterns (3D: more than
     ``_Pardiso.dense_row`` upper entries a row; False: the union of the patterns seen lately,
@@ -352,7 +351,7 @@ class LinearSolver:
             raise LinearSolveError("pardiso: matrix is singular (an empty row)")
         # The symbolic analysis (ordering) depends only on the sparsity pattern: reuse it while the
         # pattern stays (phase 23 = numerical factorisation + solve), redo it when contact changes
-        # it (phase 13). Measured: the analysis is ~55% of a 2D solve.
+        # it (phase 13): the analysis is a large share of a 2D solve.
         if self._analysed is not None and pattern.key != self._analysed:
             # MKL wrote out of bounds when one handle was re-analysed for a new pattern: start clean
             self._pardiso.release()

@@ -47,8 +47,9 @@ class NewtonOptions:
     in IPC) or "never" (the full Hessian; a scaled gradient step where it does not descend).
 
     Adaptive is the default because projecting a stable but locally non-convex gel (every gel
-    element under lateral constraint) discards real curvature: measured on a swelling layer,
-    always-projected Newton needed 725 iterations where the full Hessian needed 20, quadratically.
+    element under lateral constraint) discards real curvature: on a swelling layer always-projected
+    Newton converges linearly where the full Hessian converges quadratically (docs/solver.md,
+    "Choices").
     """
 
     rtol: float = 1e-6
@@ -259,11 +260,9 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
     - eps (``regularisation``), always: a floating body's rigid modes are an exact null space,
       in which a singular solve returns an arbitrary drift that no residual check can see.
     - tau ("adaptive"): starts at the Marquardt term ``lm`` and grows only while the step does
-      not descend. An indefinite Hessian whose Newton step still descends is kept: it converged
-      a swelling layer in 4 iterations per step, where requiring definiteness damped it into
-      stagnation. Projecting element Hessians instead discards the curvature of every gel
-      element (each is non-convex alone while the assembly is stable): 2204 iterations on a
-      jammed packing against 1587 with tau.
+      not descend; with ``definite`` (the inertia correction) also while K has a negative
+      eigenvalue. Projecting element Hessians instead discards the curvature of every gel
+      element (each is non-convex alone while the assembly is stable: docs/solver.md, "Choices").
     """
     adaptive = options.projection == "adaptive"
     fallback = any(t.fallback_projection for t in terms)
@@ -276,7 +275,7 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
         if (attempt == 1 or krylov) and adaptive and fallback and not projected:
             # the barrier's own negative curvature (b'(d) times the curvature of the distance)
             # is what makes a contact Hessian indefinite: project it per contact, as IPC does,
-            # before damping the whole system (about 15% fewer iterations on a one-particle actuator)
+            # before damping the whole system (docs/solver.md, "Choices")
             H = _sum_hessians(t.hessian(xs, True) if t.fallback_projection else h for t, h in zip(terms, hessians))
             Hff = _free_block(H, fidx)
             tau, projected = lm, True

@@ -123,9 +123,9 @@ class PathOptions:
     damping_relax_after: int = 0
     """With N > 0, a raised damping is also divided by ``damping_growth`` after N accepted steps
     in a row at its level, easy or not (as :attr:`recover` for the increment); 0: only easy
-    steps lower it. A path whose damping was never raised is not touched, to the bit. Off by
-    default: measured on the 3D default design, not adopted (docs/solver.md, "Relaxing the
-    damping")."""
+    steps lower it. A path whose damping was never raised is not touched, to the bit. Off in
+    these generic defaults; the actuator's path (:data:`hydrojam.actuator.simulate.ACTUATOR_PATH`)
+    relaxes after every step, since it starts every step undamped (docs/solver.md, "Relaxing the damping")."""
 
 
 @dataclass(frozen=True)
