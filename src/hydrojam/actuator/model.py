@@ -15,7 +15,7 @@ import numpy as np
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.contact import Contact, default_settings
 from hydrojam.actuator.design import Design, DesignError
-from hydrojam.fem.elements import element_for_meshio_type
+from hydrojam.fem.elements import element_for_meshio_type, straight_pieces
 from hydrojam.materials.energies import Hydrogel, Material
 from hydrojam.fem.mesh import Mesh
 from hydrojam.actuator.geometry import jitter_particles, mesh_design
@@ -164,16 +164,6 @@ def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
     return on[np.argsort(-mesh.points[on, -1])]
 
 
-#: straight pieces of a quadratic facet, corners then mid nodes (meshio order): 2 segments of a
-#: line3, 4 triangles of a triangle6
-_SPLIT_FACET = {3: np.array([[0, 2], [2, 1]]), 6: np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])}
-
-
-def _straight_pieces(facets: np.ndarray) -> np.ndarray:
-    table = _SPLIT_FACET.get(facets.shape[1])
-    return facets if table is None else facets[:, table].reshape(-1, table.shape[1])
-
-
 def build_model(design: Design) -> ActuatorModel:
     """Mesh the design and set up bodies, materials, clamp, contact and the stimulus path.
 
@@ -229,7 +219,7 @@ def build_model(design: Design) -> ActuatorModel:
                                 friction_eps=design.friction_slip,
                                 **ccd)
     contact = Contact(mesh.points, facets, components, settings)
-    segments = _straight_pieces(mesh.facet_groups["cavity"])
+    segments = straight_pieces(mesh.facet_groups["cavity"], mesh.dim - 1)
     if design.stimulus.schedule is not None:  # time-resolved: the particles' kinetics set the path
         path = timed_stimulus_path(design.hydrogel, design.stimulus.mu, design.stimulus.schedule,
                                    design.particle_diameter, design.hydrogel.diffusivity, dimension=design.dimension)

@@ -15,16 +15,12 @@ from hydrojam._io import atomic_path
 from hydrojam.actuator.fields import cell_fields
 from hydrojam.actuator.metrics import centreline_profile
 from hydrojam.actuator.model import PARTICLE_BODY
-from hydrojam.fem.elements import element_for_meshio_type
-
-
-_TRI6_SPLIT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
+from hydrojam.fem.elements import ELEMENTS, element_for_meshio_type, straight_pieces
 
 
 def _outline_segments(mesh) -> np.ndarray:
-    """Boundary facets of a mesh as straight pieces (k, 2) of node indices."""
-    f = mesh.boundary_facets()
-    return f[:, [0, 2, 2, 1]].reshape(-1, 2) if f.shape[1] == 3 else f
+    """Boundary facets of a 2D mesh as straight pieces (k, 2) of node indices."""
+    return straight_pieces(mesh.boundary_facets(), 1)
 
 
 def _mid_section(model, fields):
@@ -41,10 +37,10 @@ def _mid_section(model, fields):
     flat = np.all(np.abs(X[faces[..., :3], 1]) < tol, axis=2)
     owner = np.repeat(upper[:, None], local.shape[0], axis=1)[flat]
     faces = faces[flat]
-    tris = faces[:, _TRI6_SPLIT].reshape(-1, 3)
+    tris = straight_pieces(faces, 2)
     body = np.repeat(fields["body_id"][owner], 4)
     swell = np.repeat(fields["swelling_ratio"][owner], 4)
-    edges = faces[:, [0, 3, 3, 1, 1, 4, 4, 2, 2, 5, 5, 0]].reshape(-1, 2)
+    edges = straight_pieces(faces[:, ELEMENTS["tri6"].facets].reshape(-1, 3), 1)  # each face's rim
     _, first, counts = np.unique(np.sort(edges, axis=1), axis=0, return_index=True, return_counts=True)
     return tris, body, swell, edges[first[counts == 1]]
 
@@ -74,8 +70,8 @@ def plot_actuator(model, state, path: str | os.PathLike) -> None:
         X, x = X[:, [0, 2]], x[:, [0, 2]]
     else:
         cells = mesh.cells
-        tris = cells[:, _TRI6_SPLIT].reshape(-1, 3) if cells.shape[1] == 6 else cells
-        rep = 4 if cells.shape[1] == 6 else 1
+        tris = straight_pieces(cells, 2)
+        rep = len(tris) // len(cells)
         body = np.repeat(fields["body_id"], rep)
         swell = np.repeat(fields["swelling_ratio"], rep)
         seg = _outline_segments(mesh)

@@ -20,7 +20,8 @@ from matplotlib.figure import Figure
 from hydrojam._io import atomic_path
 from hydrojam.actuator.metrics import centreline_points
 from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY, centreline_x
-from hydrojam.actuator.plots import _TRI6_SPLIT, _mid_section
+from hydrojam.fem.elements import straight_pieces
+from hydrojam.actuator.plots import _mid_section
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, without_result
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
 
@@ -86,12 +87,9 @@ def _drawing(mesh, source: str = "final.vtu") -> _Drawing:
         cells = np.asarray(block.data)
         body = (np.asarray(body_data[i]).reshape(-1) if body_data is not None
                 else np.full(len(cells), MEMBRANE_BODY))
-        if block.type == "triangle6":
-            tris.append(cells[:, _TRI6_SPLIT].reshape(-1, 3))
-            bodies.append(np.repeat(body, 4))
-        else:
-            tris.append(cells)
-            bodies.append(body)
+        pieces = straight_pieces(cells, 2)
+        tris.append(pieces)
+        bodies.append(np.repeat(body, len(pieces) // max(len(cells), 1)))
     if not tris:
         raise ValueError(f"no triangles in {source}")
     return pts, np.concatenate(tris), np.concatenate(bodies), outline, False
