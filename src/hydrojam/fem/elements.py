@@ -383,7 +383,7 @@ def straight_pieces(cells: np.ndarray, dim: int) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 
 
-def _det_inv(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _det_and_adjugate(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Determinant and adjugate (= det * inverse) of stacked square matrices, closed form."""
     d = J.shape[-1]
     if d == 1:
@@ -471,7 +471,7 @@ def physical_gradients(
     dN = element.grad(pts)  # (nq, nen, dim)
     # J_ij = dx_i / dxi_j, (ne, nq, dim, dim); affine elements: one Jacobian, broadcast over points
     J = _jacobians(coords, dN[:1] if element.order == 1 else dN)
-    det, adj = _det_inv(J)
+    det, adj = _det_and_adjugate(J)
     bad = ~(det > 0.0)
     if bad.any():
         e, q = np.argwhere(bad)[0]
