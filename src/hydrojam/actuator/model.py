@@ -18,7 +18,7 @@ from hydrojam.actuator.design import Design, DesignError
 from hydrojam.fem.elements import element_for_meshio_type, straight_pieces
 from hydrojam.materials.energies import Hydrogel, Material
 from hydrojam.fem.mesh import Mesh
-from hydrojam.actuator.geometry import jitter_particles, mesh_design
+from hydrojam.actuator.geometry import MEMBRANE, STRAIN_LIMIT_LAYER, jitter_particles, mesh_design
 from hydrojam.actuator.metrics import (
     STATE_METRICS,
     bending_angle_3d_deg,
@@ -54,9 +54,10 @@ WALL_COMPONENT = -1  # contact component of the membrane and strain-limit layer 
 #: body ids written to results (cell data ``body_id``): particles are PARTICLE_BODY + k
 MEMBRANE_BODY, STRAIN_LIMIT_BODY, PARTICLE_BODY = 0, 1, 2
 
-#: names of the solid's blocks (= the mesh's cell groups of the membrane and the strain-limit
-#: layer; the particles' block holds every particle's cells, particle by particle)
-MEMBRANE, STRAIN_LIMIT_LAYER, PARTICLES = "membrane", "strain_limit_layer", "particles"
+#: names of the solid's blocks: MEMBRANE and STRAIN_LIMIT_LAYER (from ``actuator.geometry``: the
+#: mesh's cell groups of the membrane and the strain-limit layer) and PARTICLES, the block that
+#: holds every particle's cells, particle by particle
+PARTICLES = "particles"
 
 
 def check_supported(design: Design) -> None:
@@ -107,7 +108,7 @@ class ActuatorModel:
         return self.path(s)
 
     def materials_at(self, s: float) -> dict[str, Material]:
-        """Material of every block by name ("membrane", "strain_limit_layer", "particles") at load
+        """Material of every block by name (MEMBRANE, STRAIN_LIMIT_LAYER, PARTICLES) at load
         parameter s (the gel at the stimulus of s)."""
         mu, T = self.path(s)
         return {MEMBRANE: self.membrane, STRAIN_LIMIT_LAYER: self.strain_limit, PARTICLES: self.gel.at(mu, T)}
@@ -156,7 +157,7 @@ def centreline_x(design: Design) -> float:
 
 def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
     x_mid = centreline_x(design)
-    nodes = np.unique(mesh.cells[mesh.cell_groups["strain_limit_layer"]])
+    nodes = np.unique(mesh.cells[mesh.cell_groups[STRAIN_LIMIT_LAYER]])
     tol = 1e-6 * design.length
     on = nodes[np.abs(mesh.points[nodes, 0] - x_mid) < tol]
     if mesh.dim == 3:  # the mid-surface's line on the plane y = 0
@@ -192,7 +193,7 @@ def build_model(design: Design) -> ActuatorModel:
     ])
     components = np.full(mesh.n_nodes, WALL_COMPONENT)
     body_id = np.full(mesh.n_cells, MEMBRANE_BODY)
-    body_id[mesh.cell_groups["strain_limit_layer"]] = STRAIN_LIMIT_BODY
+    body_id[mesh.cell_groups[STRAIN_LIMIT_LAYER]] = STRAIN_LIMIT_BODY
     for k, cells in enumerate(particle_cells):
         components[np.unique(mesh.cells[cells])] = k
         body_id[cells] = PARTICLE_BODY + k
