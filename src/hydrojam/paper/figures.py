@@ -24,6 +24,7 @@ from hydrojam.fem.elements import straight_pieces
 from hydrojam.actuator.plots import _mid_section
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, without_result
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
+from hydrojam.study.cache import PointStatus
 
 __all__ = ["DPI", "SHAPES_MAX_COLUMNS", "figure_names", "plot_shapes", "plot_trends", "write_figures"]
 
@@ -154,7 +155,7 @@ def _current_drawing(point_dir: Path):
 
 def _failure_text(row: dict, reason: str | None = None) -> str:
     """Why a panel is empty, wrapped to fit it."""
-    if reason is None and point_status(row) == "unfinished":
+    if reason is None and point_status(row) == PointStatus.UNFINISHED:
         return "\n".join(textwrap.wrap(str(row.get("error") or "not finished"), 28)[:6])
     err = reason or str(row.get("error") or "no result")
     return "\n".join(textwrap.wrap(f"failed: {err}", 28)[:6])
@@ -203,7 +204,7 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         pdir = out / str(row.get("point_dir") or "")
         panel = {"row": row, "shape": None, "outline": None, "failed": None, "section": False, "now": None,
                  "line": None}
-        if point_status(row) == "unfinished" and row.get("point_dir"):
+        if point_status(row) == PointStatus.UNFINISHED and row.get("point_dir"):
             try:
                 current = _current_drawing(pdir)
             except Exception:  # noqa: BLE001 - a checkpoint being rewritten: the text panel instead
@@ -262,7 +263,7 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         if panel["failed"] is not None:
             ax.set_title(head, fontsize=9)
             ax.text(0.5, 0.5, panel["failed"], transform=ax.transAxes, ha="center", va="center", fontsize=7,
-                    color="0.3" if point_status(row) == "unfinished" else "tab:red")
+                    color="0.3" if point_status(row) == PointStatus.UNFINISHED else "tab:red")
             continue
         angle = number(row.get("bending_angle_deg"))
         title = head + (f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
@@ -282,9 +283,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         if panel["now"] is not None:
             ax.set_title(f"{head}\n{panel['now']}", fontsize=9, color="0.4")
             continue
-        if point_status(row) == "not_converged":
+        if point_status(row) == PointStatus.NOT_CONVERGED:
             title += " (not converged)"
-        ax.set_title(title, fontsize=9, color="tab:red" if point_status(row) == "not_converged" else "k")
+        ax.set_title(title, fontsize=9, color="tab:red" if point_status(row) == PointStatus.NOT_CONVERGED else "k")
     has_lines = any(p["line"] is not None for p in panels)
     lines_only = has_lines and all(p["shape"] is None for p in panels)
     handles = [] if lines_only else [Patch(color=_COLOURS["membrane"], label="membrane"),
@@ -352,7 +353,7 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
                 continue
             xs.append(p)
             ys.append(abs(v) if magnitude else v)
-            hollow.append(point_status(r) == "not_converged")
+            hollow.append(point_status(r) == PointStatus.NOT_CONVERGED)
             err.append(number(r.get(f"{key}_std")) or 0.0)
             ends = [number(r.get(f"{key}_min")), number(r.get(f"{key}_max"))]
             ends = [ys[-1] if e is None else (abs(e) if magnitude else e) for e in ends]
@@ -391,9 +392,9 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
     if replicas and max(replicas) > 1:
         caption += (f"\nmeans of {max(replicas):.0f} replicas per point; error bars ± one standard deviation, "
                     "bands the replicas' range")
-    failed = [r for r in rows if point_status(r) == "failed"]
+    failed = [r for r in rows if point_status(r) == PointStatus.FAILED]
     sym, _, u = _sweep_for(param, label, unit)
-    for what, left in (("failed", failed), ("not finished", [r for r in rows if point_status(r) == "unfinished"])):
+    for what, left in (("failed", failed), ("not finished", [r for r in rows if point_status(r) == PointStatus.UNFINISHED])):
         if left:
             caption += f"\n{what} (not drawn): " + ", ".join(f"{sym} = {fmt_param(number(r.get(param)), u)}"
                                                            for r in left)

@@ -31,6 +31,7 @@ from pathlib import Path
 from hydrojam._io import finite_or_none, write_text_atomic
 from hydrojam.actuator.design import Design, with_replicas
 from hydrojam.actuator.metrics import STATE_METRICS, metric
+from hydrojam.study.cache import PointStatus
 from hydrojam.study.spec import Study, SweepSpec
 from hydrojam.study.spread import Spread, spread
 from hydrojam.study.sweep import PointOutcome, SweepTable, replica_table, run_point, run_sweep
@@ -95,7 +96,7 @@ class ReplicaSummary:
     @property
     def used(self) -> list[int]:
         """The replicas in the statistics (status ok)."""
-        return [r["replica"] for r in self.runs if r.get("status") == "ok"]
+        return [r["replica"] for r in self.runs if r.get("status") == PointStatus.OK]
 
     @property
     def compute_time_s(self) -> float:
@@ -148,7 +149,7 @@ def summarise(design: Design, runs: list[dict], wall_time_s: float | None = None
     -------
     ReplicaSummary
     """
-    stats = {name: spread([r.get(name) if r.get("status") == "ok" else None for r in runs])
+    stats = {name: spread([r.get(name) if r.get("status") == PointStatus.OK else None for r in runs])
              for name in SUMMARY_METRICS}
     return ReplicaSummary(design, runs, stats, wall_time_s)
 

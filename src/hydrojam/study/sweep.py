@@ -54,12 +54,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hydrojam._io import (FOLDER_LOCK, FolderKindError, LockHeld, atomic_path, check_folder_kind, finite_number,
+from hydrojam._io import (FOLDER_LOCK, FolderKind, FolderKindError, LockHeld, atomic_path, check_folder_kind, finite_number,
                           finite_or_none, hold_lock, make_folder, read_json_dict, read_toml, write_text_atomic)
 from hydrojam._validation import owner_model
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress, release_progress
 from hydrojam.actuator.design import Design, DesignError
 from hydrojam.actuator.metrics import STATE_METRICS, metric
+from hydrojam.study.cache import FINISHED, PointStatus
 from hydrojam.study.spec import Point, Study, StudyError, write_study
 from hydrojam.study.spread import spread
 
@@ -74,7 +75,6 @@ TABLE_RUN_FIELDS = ("converged", "stabilisation_released", "s_reached", "load_st
 METRIC_COLUMNS: dict[str, type] = {m.name: m.type for m in (*STATE_METRICS, *map(metric, TABLE_RUN_FIELDS))}
 _HEAD: dict[str, type] = {"sweep": str, "point": int, "key": str}
 _TAIL: dict[str, type] = {"wall_time_s": metric("wall_time_s").type, "status": str, "error": str, "point_dir": str}
-_FINISHED = ("ok", "not_converged")
 #: the metrics whose spread over a point's replicas the table carries (``<name>_std``, ``_min``, ``_max``)
 SPREAD_METRICS: tuple[str, ...] = tuple(m.name for m in STATE_METRICS if m.type is float)
 _SPREAD: dict[str, type] = {f"{name}_{stat}": float for name in SPREAD_METRICS for stat in ("std", "min", "max")}
@@ -164,14 +164,14 @@ def _execute(point_fn: Callable[[Design, Path], dict], design: Design, point_dir
     except Exception as err:  # a failing point never stops the others
         elapsed = time.perf_counter() - t0
         write_text_atomic(folder / "error.txt", traceback.format_exc())
-        record = _record(key, "failed", _single_line(f"{type(err).__name__}: {err}"), None, elapsed, elapsed)
+        record = _record(key, PointStatus.FAILED, _single_line(f"{type(err).__name__}: {err}"), None, elapsed, elapsed)
     else:
         elapsed = time.perf_counter() - t0
         converged = metrics.get("converged", True) is not False
         error = None if converged else _single_line(metrics.get("message") or "the solver stopped early")
         wall = metrics.get("wall_time_s")
         wall = wall if isinstance(wall, (int, float)) and not isinstance(wall, bool) else elapsed
-        record = _record(key, "ok" if converged else "not_converged", error, metrics, wall, elapsed)
+        record = _record(key, PointStatus.OK if converged else PointStatus.NOT_CONVERGED, error, metrics, wall, elapsed)
     _write_record(folder, record)
     return record
 
@@ -335,7 +335,7 @@ def build_table(study: Study, records: dict[str, dict]) -> SweepTable:
     rows = []
     for points in groups.values():
         p = points[0]
-        recs = [records.get(q.key) or {"status": "failed", "error": "no outcome recorded"} for q in points]
+        recs = [records.get(q.key) or {"status": PointStatus.FAILED, "error": "no outcome recorded"} for q in points]
         row = _point_row(p, varied)
         row.update(_aggregate(recs, [q.replica for q in points], replicated))
         row["point_dir"] = f"points/{p.key}"
@@ -362,10 +362,11 @@ def _aggregate(recs: list[dict], replicas: list[int], replicated: bool) -> dict[
         used = [0] if recs[0].get("metrics") else []
         status = statuses[0]
     else:
-        used = [i for i, st in enumerate(statuses) if st == "ok"]
-        used = used or [i for i, st in enumerate(statuses) if st == "not_converged" and recs[i].get("metrics")]
+        used = [i for i, st in enumerate(statuses) if st == PointStatus.OK]
+        used = used or [i for i, st in enumerate(statuses) if st == PointStatus.NOT_CONVERGED and recs[i].get("metrics")]
         # a replica not finished yet (a table written without running) leaves the point unfinished
-        status = "unfinished" if "unfinished" in statuses else (statuses[used[0]] if used else "failed")
+        status = (PointStatus.UNFINISHED if PointStatus.UNFINISHED in statuses
+                  else statuses[used[0]] if used else PointStatus.FAILED)
     out: dict[str, Any] = {}
     for k, kind in METRIC_COLUMNS.items():
         values = [(recs[i].get("metrics") or {}).get(k) for i in used]
@@ -387,7 +388,7 @@ def _aggregate(recs: list[dict], replicas: list[int], replicated: bool) -> dict[
         out["error"] = _coerce(recs[0].get("error"), str)
     else:
         errors = [f"replica {k}: {r.get('error') or r.get('status')}" for k, r in zip(replicas, recs)
-                  if r.get("status") != "ok"]
+                  if r.get("status") != PointStatus.OK]
         out["error"] = "; ".join(errors) or None
     return out
 
@@ -399,7 +400,7 @@ def replica_table(study: Study, records: dict[str, dict]) -> SweepTable:
     columns = [*_HEAD, "replica", *varied, *METRIC_COLUMNS, *_TAIL]
     rows = []
     for p in study.points():
-        rec = records.get(p.key) or {"status": "failed", "error": "no outcome recorded"}
+        rec = records.get(p.key) or {"status": PointStatus.FAILED, "error": "no outcome recorded"}
         row = _point_row(p, varied)
         row["replica"] = p.replica
         row = {c: row[c] for c in columns if c in row}
@@ -443,7 +444,8 @@ class PointOutcome:
 
     @property
     def status(self) -> str:
-        return self.record.get("status", "failed")
+        """The point's status (a :class:`~hydrojam.study.cache.PointStatus` value)."""
+        return self.record.get("status", PointStatus.FAILED)
 
     @property
     def error(self) -> str | None:
@@ -664,7 +666,7 @@ def run_sweep(
     if not run:
         for key in pending:
             folder = out / "points" / key
-            records[key] = {"status": "unfinished", "error": unfinished_text(
+            records[key] = {"status": PointStatus.UNFINISHED, "error": unfinished_text(
                 running_point(tuple(groups[key]), folder), (folder / CHECKPOINT).is_file())}
         return _write_table(study, out, records)
 
@@ -709,7 +711,7 @@ def _finished_records(out: Path, groups: dict[str, list[Point]], failed: bool = 
     records = {}
     for key in groups:
         rec = _read_record(out / "points" / key)
-        if rec is not None and (rec.get("status") in _FINISHED or (failed and rec.get("status") == "failed")):
+        if rec is not None and (rec.get("status") in FINISHED or (failed and rec.get("status") == PointStatus.FAILED)):
             records[key] = rec
     return records
 
@@ -749,7 +751,7 @@ def run_states(out: str | os.PathLike, table: SweepTable) -> dict[str, str]:
             if d not in states:
                 rec = _read_record(Path(out) / d)
                 status = None if rec is None else rec.get("status")
-                states[d] = status if status in (*_FINISHED, "failed") else "unfinished"
+                states[d] = status if status in (*FINISHED, PointStatus.FAILED) else PointStatus.UNFINISHED
     return states
 
 
@@ -772,7 +774,7 @@ def _check_kind(out: Path) -> None:
     """StudyError when ``OUT`` holds another kind of output than a study's (a single run's, an
     assessment's, one point of a study): the study's files would mix with it."""
     try:
-        check_folder_kind(out, "study")
+        check_folder_kind(out, FolderKind.STUDY)
     except FolderKindError as err:
         raise StudyError(str(err)) from None
 
@@ -843,7 +845,7 @@ def _compute(client, groups, pending, out, point_fn, records, on_point, done, to
             else:  # the worker died or the task was lost: record it as a failed point
                 exc = fut.exception() if fut.status == "error" else None
                 error = _single_line(f"{type(exc).__name__}: {exc}") if exc is not None else f"task {fut.status}"
-                rec = _record(key, "failed", error, None, None, None)
+                rec = _record(key, PointStatus.FAILED, error, None, None, None)
                 folder.mkdir(parents=True, exist_ok=True)
                 _write_record(folder, rec)
             records[key] = json.loads(json.dumps(rec, allow_nan=False))  # as it reads back from point.json
