@@ -15,7 +15,7 @@ from hydrojam._io import atomic_path
 from hydrojam.actuator.fields import cell_fields
 from hydrojam.actuator.metrics import centreline_profile
 from hydrojam.actuator.model import PARTICLE_BODY
-from hydrojam.fem.elements import ELEMENTS, element_for_meshio_type, straight_pieces
+from hydrojam.fem.elements import ELEMENTS, straight_pieces
 
 
 def _outline_segments(mesh) -> np.ndarray:
@@ -23,17 +23,17 @@ def _outline_segments(mesh) -> np.ndarray:
     return straight_pieces(mesh.boundary_facets(), 1)
 
 
-def _mid_section(model, fields):
+def _mid_section(X: np.ndarray, cells: np.ndarray, length: float, fields: dict):
     """A 3D actuator's section y = 0 as straight triangles: (triangles (k, 3) of node indices,
-    body id and swelling ratio of each, outline segments (m, 2)). The faces of the cells on the
+    body id and swelling ratio of each, outline segments (m, 2)), from its reference node
+    positions X (n, 3) [mm], its tetra10 cells (c, 10), its length [mm] (the scale of the
+    tolerance) and the cell fields "body_id" and "swelling_ratio". The faces of the cells on the
     y >= 0 side that lie on the plane y = 0 (the half model's cut faces, the whole model's
     mid-plane), each tri6 split into 4 triangles; the outline is their edges used once."""
-    mesh = model.mesh
-    X = mesh.points
-    tol = 1e-6 * model.design.length
-    local = element_for_meshio_type(mesh.cell_type).facets  # (4, 6) tri6 faces of a tetra10
-    upper = np.flatnonzero(X[mesh.cells[:, :4], 1].mean(axis=1) > 0.0)
-    faces = mesh.cells[upper][:, local]  # (c, 4, 6)
+    tol = 1e-6 * length
+    local = ELEMENTS["tet10"].facets  # (4, 6) tri6 faces of a tetra10
+    upper = np.flatnonzero(X[cells[:, :4], 1].mean(axis=1) > 0.0)
+    faces = cells[upper][:, local]  # (c, 4, 6)
     flat = np.all(np.abs(X[faces[..., :3], 1]) < tol, axis=2)
     owner = np.repeat(upper[:, None], local.shape[0], axis=1)[flat]
     faces = faces[flat]
@@ -66,7 +66,7 @@ def plot_actuator(model, state, path: str | os.PathLike) -> None:
     mesh, X, x = model.mesh, model.mesh.points, state.x
     fields = cell_fields(model, x, state.s)
     if mesh.dim == 3:
-        tris, body, swell, seg = _mid_section(model, fields)
+        tris, body, swell, seg = _mid_section(X, mesh.cells, model.design.length, fields)
         X, x = X[:, [0, 2]], x[:, [0, 2]]
     else:
         cells = mesh.cells

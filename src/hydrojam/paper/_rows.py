@@ -7,6 +7,7 @@ from collections.abc import Sequence
 
 from hydrojam._io import finite_number
 from hydrojam.study.cache import PointStatus
+from hydrojam.study.sweep import SweepTable
 
 
 def number(v) -> float | None:
@@ -44,12 +45,9 @@ def without_result(row: dict) -> bool:
     return point_status(row) in (PointStatus.FAILED, PointStatus.UNFINISHED)
 
 
-def rows_of(table, sweep: str) -> list[dict]:
-    """The rows of one sweep from a SweepTable (``select``), or from a plain list of rows."""
-    if hasattr(table, "select"):
-        selected = table.select(sweep)
-        return list(selected.rows if hasattr(selected, "rows") else selected)
-    rows = table.rows if hasattr(table, "rows") else table
+def rows_of(table: SweepTable | Sequence[dict], sweep: str) -> list[dict]:
+    """The rows of one sweep from a SweepTable (its ``rows``), or from a plain list of rows."""
+    rows = table if isinstance(table, Sequence) else table.rows
     return [r for r in rows if r.get("sweep") == sweep]
 
 

@@ -12,7 +12,6 @@ import os
 import textwrap
 from collections.abc import Sequence
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -99,11 +98,9 @@ def _drawing(mesh, source: str = "final.vtu") -> _Drawing:
 def _section_y0(points: np.ndarray, cells: np.ndarray, body: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The section y = 0 of a 3D actuator's quadratic tetrahedra in reference ``points`` (n, 3)
     [mm]: straight triangles (k, 3) of node indices and their body ids, as ``final.png`` draws it
-    (:func:`hydrojam.actuator.plots._mid_section`, given the file's mesh in place of a model)."""
-    ref = SimpleNamespace(mesh=SimpleNamespace(points=points, cells=cells, cell_type="tetra10"),
-                          design=SimpleNamespace(length=float(np.ptp(points[:, 2])) or 1.0))
+    (:func:`hydrojam.actuator.plots._mid_section`, given the file's mesh)."""
     fields = {"body_id": body, "swelling_ratio": np.zeros(len(body))}
-    tris, bodies, _, _ = _mid_section(ref, fields)
+    tris, bodies, _, _ = _mid_section(points, cells, float(np.ptp(points[:, 2])) or 1.0, fields)
     return tris, bodies
 
 
