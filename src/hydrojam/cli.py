@@ -631,7 +631,7 @@ def _interim_report(write, out: Path, quiet: bool) -> None:
     finished one failed or stopped early."""
     from hydrojam.actuator.design import DesignError
     from hydrojam.study.cache import PointStatus
-    from hydrojam.study.sweep import run_states
+    from hydrojam.study.table import run_states
 
     try:
         result = write()

@@ -1,4 +1,4 @@
-"""Reading the rows of a sweep table (:class:`hydrojam.study.sweep.SweepTable` or plain dicts):
+"""Reading the rows of a sweep table (:class:`hydrojam.study.table.SweepTable` or plain dicts):
 numbers that may be missing, a point's status, one sweep's rows, a parameter value as text."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from collections.abc import Sequence
 
 from hydrojam._io import finite_number
 from hydrojam.study.cache import PointStatus
-from hydrojam.study.sweep import SweepTable
+from hydrojam.study.table import SweepTable
 
 
 def number(v) -> float | None:

@@ -21,7 +21,7 @@ range), else it agrees. A claim whose sweep has a point not finished yet (a tabl
 a study in progress, ``reproduce --report-only``) is undetermined whatever its finished points
 read, and its summary says what they read: that point may change any part, and the tolerance.
 
-With replicas (a table whose points carry ``<metric>_std``, :mod:`hydrojam.study.sweep`) the
+With replicas (a table whose points carry ``<metric>_std``, :mod:`hydrojam.study.table`) the
 values are the replicas' means, and a part agrees or disagrees only when it does beyond the
 spread: each comparison's distance from its threshold (e.g. v(b) - v(a) - tol for *rises*) must
 exceed the spread of what it compares, u = sqrt(s_a² + s_b²) with s the points' standard

@@ -21,7 +21,7 @@ from hydrojam.actuator.design import Design
 from hydrojam.paper._rows import cell_pm, fmt_param, number, point_status, rows_of, without_result
 from hydrojam.paper.study import PAPER_SWEEPS, reproduce_command, study_name
 from hydrojam.study.cache import PointStatus
-from hydrojam.study.sweep import SweepTable
+from hydrojam.study.table import SweepTable
 
 __all__ = [
     "COMPARE_OPTION",

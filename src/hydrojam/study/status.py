@@ -16,9 +16,8 @@ from pathlib import Path
 
 from hydrojam._io import FOLDER_LOCK, FolderKind, finite_number, read_json_dict
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress
-from hydrojam.study.cache import FINISHED, PointStatus
+from hydrojam.study.cache import FINISHED, PointStatus, running_point
 from hydrojam.study.spec import Point, StudyError, load_study
-from hydrojam.study.sweep import running_point
 
 __all__ = ["FolderStatus", "RunStatus", "StatusError", "current_state", "folder_status", "release_metrics"]
 
