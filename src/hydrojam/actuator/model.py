@@ -246,20 +246,7 @@ def particle_areas(model: ActuatorModel, x: np.ndarray) -> np.ndarray:
 
 
 def measure(model: ActuatorModel, x: np.ndarray) -> dict:
-    """The metrics of DESIGN.md section 7 at one state: :func:`hydrojam.actuator.metrics.measure`
-    of the model's gauges (one value per entry of
-    :data:`~hydrojam.actuator.metrics.STATE_METRICS`, in that order).
-
-    Parameters
-    ----------
-    model : ActuatorModel
-        The model.
-    x : ndarray, shape (n, d)
-        Positions of the mesh's nodes [mm] (d = 2 or 3, the model's dimension).
-
-    Returns
-    -------
-    dict
-        Metric name -> value in the metric's unit (None where undefined).
-    """
+    """The metrics of DESIGN.md section 7 at the nodes' positions ``x`` (n, d) [mm], as metric name
+    -> value: :func:`hydrojam.actuator.metrics.measure` of the model's gauges, where they are
+    defined (:data:`~hydrojam.actuator.metrics.STATE_METRICS`, in that order)."""
     return measure_state(model.gauges, x)
