@@ -405,7 +405,7 @@ def test_running_points_in_the_release_say_how_far_it_has_gone():
     from hydrojam.actuator.checkpoint import ReleaseProgress
     from hydrojam.cli import _running_text
     from hydrojam.study.spec import study_from_dict
-    from hydrojam.study.sweep import RunningPoint
+    from hydrojam.study.cache import RunningPoint
 
     study = study_from_dict({"name": "two", "design": {"particle_layers": 1},
                              "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [285, 295]}}]})

@@ -5,6 +5,7 @@ values in outputs."""
 from __future__ import annotations
 
 import contextlib
+import enum
 import errno
 import json
 import math
@@ -219,26 +220,37 @@ def hold_lock(path: str | os.PathLike):
         path.unlink(missing_ok=True)
 
 
+class FolderKind(enum.StrEnum):
+    """What an output folder holds; each member is its name in messages, and equal to it as a
+    string."""
+
+    STUDY = "study"  # sweep, reproduce, design-map, run --replicas
+    STUDY_POINT = "study point"  # one point's folder inside a study's points/
+    ASSESSMENT = "assessment"  # hydrojam assess
+    RUN = "run"  # hydrojam run
+    SNAPSHOTS = "snapshots"  # hydrojam snapshot (no marker file)
+
+
 #: the files that mark what an output folder holds, first match wins (:func:`folder_kind`)
 _KIND_MARKERS = (
-    ("study", ("study.toml",)),  # sweep, reproduce, design-map, run --replicas
-    ("study point", ("point.json",)),  # one point's folder inside a study's points/
-    ("assessment", ("assessment.json",)),  # hydrojam assess
-    ("run", ("metrics.json", "history.csv", "checkpoint.npz", "results.pvd")),  # hydrojam run
+    (FolderKind.STUDY, ("study.toml",)),
+    (FolderKind.STUDY_POINT, ("point.json",)),
+    (FolderKind.ASSESSMENT, ("assessment.json",)),
+    (FolderKind.RUN, ("metrics.json", "history.csv", "checkpoint.npz", "results.pvd")),
 )
 #: what each kind of folder is, in the refusal's words
-_KIND_WORDS = {"study": "a study (sweep, reproduce, design-map or run --replicas; its study.toml)",
-               "study point": "one point of a study (its point.json)",
-               "assessment": "an assessment (hydrojam assess; its assessment.json)",
-               "run": "a single run (hydrojam run; its metrics.json, history.csv or checkpoint)",
-               "snapshots": "snapshots (hydrojam snapshot)"}
+_KIND_WORDS = {FolderKind.STUDY: "a study (sweep, reproduce, design-map or run --replicas; its study.toml)",
+               FolderKind.STUDY_POINT: "one point of a study (its point.json)",
+               FolderKind.ASSESSMENT: "an assessment (hydrojam assess; its assessment.json)",
+               FolderKind.RUN: "a single run (hydrojam run; its metrics.json, history.csv or checkpoint)",
+               FolderKind.SNAPSHOTS: "snapshots (hydrojam snapshot)"}
 
 
 class FolderKindError(ValueError):
     """The output folder holds another kind of hydrojam output; the message names both."""
 
 
-def folder_kind(path: str | os.PathLike) -> str | None:
+def folder_kind(path: str | os.PathLike) -> FolderKind | None:
     """What the folder ``path`` holds, read from its marker files: "study", "study point",
     "assessment" or "run"; None for a missing folder or one without hydrojam output (snapshots
     have no marker)."""
@@ -249,7 +261,7 @@ def folder_kind(path: str | os.PathLike) -> str | None:
     return None
 
 
-def check_folder_kind(path: str | os.PathLike, kind: str) -> None:
+def check_folder_kind(path: str | os.PathLike, kind: FolderKind) -> None:
     """FolderKindError when the folder ``path`` holds output of another kind than ``kind`` (one of
     "study", "assessment", "run", "snapshots"): a run's files in a study's folder would be taken
     for the study's, an assessment would overwrite a run's design.toml. Missing and empty
@@ -262,7 +274,7 @@ def check_folder_kind(path: str | os.PathLike, kind: str) -> None:
 
 
 @contextlib.contextmanager
-def output_folder(path: str | os.PathLike, kind: str):
+def output_folder(path: str | os.PathLike, kind: FolderKind):
     """Take the output folder ``path`` for writing output of ``kind`` (:func:`check_folder_kind`):
     refused before anything is written when it is not a folder (NotADirectoryError), holds
     another kind (FolderKindError) or another live process holds its lock (LockHeld); then made

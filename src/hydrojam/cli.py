@@ -20,7 +20,7 @@ from pydantic import ValidationError
 from rich.console import Console
 from rich.table import Table
 
-from hydrojam._io import make_folder
+from hydrojam._io import FolderKind, make_folder
 from hydrojam._validation import describe_error, is_non_finite, non_finite_message
 from hydrojam.materials.energies import WATER_RANGE_K, HydrogelParams
 from hydrojam.materials.swelling import swelling_curve
@@ -271,12 +271,12 @@ def run_design(
     if workers is not None or scheduler is not None:
         raise InputError(f"{'--workers' if workers is not None else '--scheduler'}: only with --replicas N > 1 "
                          "(a single run is one process)")
-    with _output_folder(out, "run"):  # before meshing: a folder that cannot be taken is refused at once
+    with _output_folder(out, FolderKind.RUN):  # before meshing: a folder that cannot be taken is refused at once
         _run_one(design, design_file, out, vtu, fresh, quiet)
 
 
 @contextlib.contextmanager
-def _output_folder(out: Path, kind: str):
+def _output_folder(out: Path, kind: FolderKind):
     """:func:`hydrojam._io.output_folder` with its refusals (another kind of output, a live
     run's lock) as one line, exit status 2."""
     from hydrojam._io import FolderKindError, LockHeld, output_folder
@@ -529,10 +529,11 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
 
     from hydrojam.actuator.design import DesignError
     from hydrojam._format import duration
+    from hydrojam.study.cache import PointStatus
     from hydrojam.study.sweep import SchedulerError
 
     console = Console(stderr=True)
-    counts = {"ok": 0, "not_converged": 0, "failed": 0}
+    counts = {PointStatus.OK: 0, PointStatus.NOT_CONVERGED: 0, PointStatus.FAILED: 0}
     cached = [0]
     t0 = time.perf_counter()
     columns = [TextColumn("[bold]points"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[info]}"),
@@ -565,12 +566,12 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
                 progress.start()
         counts[outcome.status] = counts.get(outcome.status, 0) + 1
         cached[0] += outcome.cached
-        if outcome.status == "failed":
+        if outcome.status == PointStatus.FAILED:
             info = f"[red]{_point_label(outcome.points)}: {outcome.error}[/red]"
         else:
             angle = (outcome.metrics or {}).get("bending_angle_deg")
             info = _point_label(outcome.points) + (f": {angle:.1f} deg" if isinstance(angle, (int, float)) else "")
-            if outcome.status == "not_converged":
+            if outcome.status == PointStatus.NOT_CONVERGED:
                 info = f"[yellow]{info} (stopped early)[/yellow]"
         info += " (cached)" if outcome.cached else ""
         last_info[0] = info
@@ -596,8 +597,8 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
     n = sum(counts.values())
     if not quiet:
         console.print(
-            f"hydrojam: {n} distinct points ({len(table)} rows): {counts['ok']} ok, "
-            f"{counts['not_converged']} not converged, {counts['failed']} failed; {cached[0]} cached, "
+            f"hydrojam: {n} distinct points ({len(table)} rows): {counts[PointStatus.OK]} ok, "
+            f"{counts[PointStatus.NOT_CONVERGED]} not converged, {counts[PointStatus.FAILED]} failed; {cached[0]} cached, "
             f"{n - cached[0]} computed; wall time {wall:.1f} s"
         )
         console.print(f"table: {out / 'results.csv'} and {out / 'results.parquet'}", soft_wrap=True)
@@ -605,8 +606,9 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
             console.print(f"report: {result[1]} (figures in {out / 'figures'})", soft_wrap=True)
     if after is not None:
         after()
-    if counts["failed"] or counts["not_converged"]:
-        console.print(f"[red]hydrojam: {counts['failed']} point(s) failed and {counts['not_converged']} stopped "
+    if counts[PointStatus.FAILED] or counts[PointStatus.NOT_CONVERGED]:
+        console.print(f"[red]hydrojam: {counts[PointStatus.FAILED]} point(s) failed and "
+                      f"{counts[PointStatus.NOT_CONVERGED]} stopped "
                       f"early; see the status and error columns of {out / 'results.csv'} (a rerun retries the "
                       f"failed ones)[/red]", soft_wrap=True)
         raise typer.Exit(code=1)
@@ -628,7 +630,8 @@ def _interim_report(write, out: Path, quiet: bool) -> None:
     one, as a run counts them) are in each state and where the results are, and exit 1 when a
     finished one failed or stopped early."""
     from hydrojam.actuator.design import DesignError
-    from hydrojam.study.sweep import run_states
+    from hydrojam.study.cache import PointStatus
+    from hydrojam.study.table import run_states
 
     try:
         result = write()
@@ -636,16 +639,18 @@ def _interim_report(write, out: Path, quiet: bool) -> None:
         raise InputError(str(err)) from None
     table, path = result if isinstance(result, tuple) else (result, None)
     by_key = run_states(out, table)
-    counts = {st: sum(v == st for v in by_key.values()) for st in ("ok", "not_converged", "failed", "unfinished")}
+    counts = {st: sum(v == st for v in by_key.values())
+              for st in (PointStatus.OK, PointStatus.NOT_CONVERGED, PointStatus.FAILED, PointStatus.UNFINISHED)}
     console = Console(stderr=True)
     if not quiet:
-        console.print(f"hydrojam: nothing run; {len(by_key)} distinct points ({len(table)} rows): {counts['ok']} ok, "
-                      f"{counts['not_converged']} not converged, {counts['failed']} failed, "
-                      f"{counts['unfinished']} not finished", soft_wrap=True)
+        console.print(f"hydrojam: nothing run; {len(by_key)} distinct points ({len(table)} rows): "
+                      f"{counts[PointStatus.OK]} ok, {counts[PointStatus.NOT_CONVERGED]} not converged, "
+                      f"{counts[PointStatus.FAILED]} failed, {counts[PointStatus.UNFINISHED]} not finished",
+                      soft_wrap=True)
         console.print(f"table: {out / 'results.csv'} and {out / 'results.parquet'}", soft_wrap=True)
         if path is not None:
             console.print(f"report: {path} (figures in {out / 'figures'})", soft_wrap=True)
-    if counts["failed"] or counts["not_converged"]:
+    if counts[PointStatus.FAILED] or counts[PointStatus.NOT_CONVERGED]:
         raise typer.Exit(code=1)
 
 
@@ -763,7 +768,7 @@ def assess_design(
     from hydrojam.assess.report import write_report
 
     console = Console(stderr=True)
-    with _output_folder(out, "assessment"):
+    with _output_folder(out, FolderKind.ASSESSMENT):
         result = assess(design, loads, on_progress=None if quiet else lambda m: console.print(f"hydrojam assess: {m}..."))
         report = write_report(result, out)
     if not quiet:
@@ -886,6 +891,7 @@ def status(
     import time
 
     from hydrojam._format import duration
+    from hydrojam.study.cache import PointStatus
     from hydrojam.study.status import StatusError, folder_status
 
     if not out.is_dir():
@@ -899,7 +905,8 @@ def status(
     for name, justify in (("point", "left"), ("state", "left"), ("s", "right"), ("angle [deg]", "right"),
                           ("run time", "right"), ("written", "right"), ("release / error", "left")):
         table.add_column(name, justify=justify)
-    colours = {"ok": "green", "not_converged": "yellow", "failed": "red", "unfinished": "cyan"}
+    colours = {PointStatus.OK: "green", PointStatus.NOT_CONVERGED: "yellow", PointStatus.FAILED: "red",
+               PointStatus.UNFINISHED: "cyan"}
     for r in st.runs:
         label = _point_label(r.points) if r.points else (f"points/{r.key} (not in study.toml)" if r.key else st.name)
         state = r.state.replace("_", " ")
@@ -916,7 +923,7 @@ def status(
         console.print(f"in use by process {st.lock.get('pid')} on {st.lock.get('host')} since "
                       f"{st.lock.get('started')} (its lock file; a killed run's is taken over by the next)",
                       soft_wrap=True, highlight=False, markup=False)
-    if st.kind == "study" and ({"unfinished", "not started"} & set(st.counts())):
+    if st.kind == FolderKind.STUDY and ({PointStatus.UNFINISHED, PointStatus.NOT_STARTED} & set(st.counts())):
         hint = _paper_commands(out, st.name, st.replicas)
         if hint:
             console.print(hint, soft_wrap=True, highlight=False, markup=False)
@@ -943,7 +950,7 @@ def snapshot(
     from hydrojam._io import FolderKindError, check_folder_kind
 
     try:
-        check_folder_kind(dest, "snapshots")
+        check_folder_kind(dest, FolderKind.SNAPSHOTS)
     except FolderKindError as err:
         raise InputError(f"--out: {err}") from None
     console = Console(stderr=True)

@@ -191,7 +191,7 @@ def test_a_release_reports_its_progress_after_every_round(tmp_path, design, stab
     the next round's damping); the checkpoint says the same to a reader in another process
     (release_progress, the sweep's running points), where the wall time counts the rounds so far
     too."""
-    from hydrojam.study.sweep import running_point
+    from hydrojam.study.cache import running_point
 
     seen = []
     result = simulate(build_model(design), on_release=seen.append, options=STABILISED)

@@ -18,7 +18,6 @@ from hydrojam.actuator.results import ResultWriter
 from hydrojam.actuator.simulate import simulate
 from hydrojam.actuator.stimulus import (
     KineticVolumes,
-    effective_chemical_potential,
     kinetic_modulus,
     sample_times,
     stimulus_path,
@@ -33,6 +32,7 @@ from hydrojam.fem.problem import Problem, fixed
 from hydrojam.fem.terms import EnergyTerm
 from hydrojam.fem.volume import LocalVolumeTerm, VolumeTerm
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, mixing_g, nominal_stresses
+from hydrojam.materials.swelling import effective_chemical_potential
 from hydrojam.materials.kinetics import time_constant
 from hydrojam.materials.swelling import equilibrium_stretches
 

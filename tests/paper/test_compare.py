@@ -104,7 +104,7 @@ def test_comparison_lines_table_and_without_2d():
 
 def test_read_2d_results_refuses_what_is_not_the_2d_study_of_the_same_kind(tmp_path):
     from hydrojam.study.spec import write_study
-    from hydrojam.study.sweep import SweepTable
+    from hydrojam.study.table import SweepTable
 
     with pytest.raises(pcompare.CompareError, match="no such folder"):
         pcompare.read_2d_results(tmp_path / "none", True)

@@ -111,7 +111,7 @@ def test_the_kept_3d_records_restore_into_the_quick_3d_study():
 
     from hydrojam.actuator.design import load_design
     from hydrojam.study.spec import design_key
-    from hydrojam.study.sweep import _read_record
+    from hydrojam.study.cache import read_record
 
     data = Path(__file__).resolve().parents[2] / "docs" / "data" / "paper-3d-quick"
     folders = sorted(f for f in data.iterdir() if f.is_dir())
@@ -124,7 +124,7 @@ def test_the_kept_3d_records_restore_into_the_quick_3d_study():
         point = points[name.replace("PL0", "PL")]  # PL05: sorted with PL15
         assert key == point.key, folder.name
         assert design_key(load_design(folder / "design.toml")) == key, folder.name
-        record = _read_record(folder)
+        record = read_record(folder)
         assert record["status"] == "ok" and record["key"] == key, folder.name
         assert record["metrics"]["converged"] is True and record["metrics"]["stabilisation_released"] is True
 

@@ -18,7 +18,7 @@ from hydrojam.cli import main
 from hydrojam.study.replicas import REPLICA_STUDY, run_replicas
 from hydrojam.study.spec import design_key, study_from_dict, write_study
 from hydrojam.study.spread import spread
-from hydrojam.study.sweep import SweepTable, build_table
+from hydrojam.study.table import SweepTable, build_table
 
 cloudpickle.register_pickle_by_value(sys.modules[__name__])
 

@@ -197,7 +197,7 @@ def test_sweep_table_only_writes_the_table_so_far(study_folder, capsys, monkeypa
 def test_table_only_counts_every_replica_as_a_run_counts_it(tmp_path, capsys):
     """A point of 2 replicas, one ok and one failed: its row is ok (the ok replica's values), but
     the summary counts the failed replica and the exit status is 1, as after a run."""
-    from hydrojam.study.sweep import SweepTable, run_states
+    from hydrojam.study.table import SweepTable, run_states
 
     study = study_from_dict({"name": "two", "design": {"particle_layers": 1, "mesh": {"size": 4.0},
                                                        "replicas": {"count": 2}},

@@ -15,7 +15,8 @@ import pytest
 
 from hydrojam.cli import main
 from hydrojam.study.spec import Study, StudyError, study_from_dict, write_study
-from hydrojam.study.sweep import SchedulerError, SweepTable, run_sweep
+from hydrojam.study.sweep import SchedulerError, run_sweep
+from hydrojam.study.table import SweepTable
 
 # the point functions below travel to the workers by value: no need for the workers to import this file
 cloudpickle.register_pickle_by_value(sys.modules[__name__])
@@ -316,7 +317,7 @@ def test_cli_summary_and_exit_status_over_cached_points(capsys, scheduler, tmp_p
 def test_table_column_types_follow_the_design_fields():
     """A varied field's column has its Design field's type: Literal[2, 3] -> int, an optional
     float -> float, a Literal of strings -> str (the Parquet column type follows)."""
-    from hydrojam.study.sweep import _field_type
+    from hydrojam.study.table import _field_type
 
     assert _field_type("dimension") is int
     assert _field_type("cavity_width") is float
@@ -453,7 +454,7 @@ def test_running_points_are_reported_with_the_s_they_reached(scheduler, tmp_path
     """on_running sees each computed point at the s of its last accepted state, never a point
     with a history older than the call (a stopped run's, not yet going on) or a finished one."""
     from hydrojam.actuator.checkpoint import CHECKPOINT
-    from hydrojam.study.sweep import point_progress
+    from hydrojam.study.cache import point_progress
 
     study = study_from_dict({"name": "two", "design": {"particle_layers": 1, "mesh": {"size": 4.0}},
                              "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [285, 295]}}]})

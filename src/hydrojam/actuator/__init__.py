@@ -15,7 +15,7 @@ _PUBLIC = {
     "hydrojam.actuator.model": ['ActuatorModel', 'build_model', 'measure'],
     "hydrojam.actuator.simulate": ['SimulationResult', 'simulate', 'ACTUATOR_PATH'],
     "hydrojam.actuator.stimulus": ['StimulusPath', 'stimulus_path', 'TimedStimulusPath', 'timed_stimulus_path'],
-    "hydrojam.actuator.metrics": ['Metric', 'metric', 'metric_names', 'bending_angle_deg', 'tip_displacement', 'curling_index', 'centreline_profile'],
+    "hydrojam.actuator.metrics": ['Metric', 'Gauges', 'metric', 'metric_names', 'bending_angle_deg', 'tip_displacement', 'curling_index', 'centreline_profile'],
     "hydrojam.actuator.results": ['ResultWriter'],
     "hydrojam.actuator.checkpoint": ['RunCheckpoint', 'CheckpointError', 'load_checkpoint', 'save_checkpoint'],
     "hydrojam.actuator.plots": ['plot_actuator', 'plot_angle_time'],

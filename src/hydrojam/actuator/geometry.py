@@ -12,6 +12,10 @@ from hydrojam.actuator.design import Design
 from hydrojam.fem.mesh import Mesh
 from hydrojam.fem.meshing import add_groups, bounding_box, generate, gmsh_session, set_mesh_size
 
+#: the cell groups of the membrane and of the strain-limit layer (also the names of their blocks
+#: in the model's solid)
+MEMBRANE, STRAIN_LIMIT_LAYER = "membrane", "strain_limit_layer"
+
 
 def actuator_2d(cavity_width: float, cavity_length: float, side_wall: float, end_wall: float,
                 strain_limit: float, centres, radius: float, size: float, order: int = 2) -> Mesh:
@@ -56,7 +60,7 @@ def actuator_2d(cavity_width: float, cavity_length: float, side_wall: float, end
             elif bb[0, 0] >= -w / 2 - tol and bb[1, 0] <= w / 2 + tol and bb[0, 1] >= -length + t1 - tol \
                     and bb[1, 1] <= -t1 + tol:
                 cavity_curves.append(c)
-        cells = {"membrane": mem, "strain_limit_layer": sll}
+        cells = {MEMBRANE: mem, STRAIN_LIMIT_LAYER: sll}
         facets = {"clamp": clamp, "free_end": free_end, "cavity": cavity_curves}
         for k, p in enumerate(particles):
             cells[f"particle{k}"] = [p]
@@ -214,7 +218,7 @@ def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, 
                     and bb[0, 1] >= -D / 2 - tol and bb[1, 1] <= D / 2 + tol \
                     and bb[0, 2] >= -t1 - lc - tol and bb[1, 2] <= -t1 + tol:
                 cavity_faces.append(t)
-        cells = {"membrane": mem, "strain_limit_layer": sll}
+        cells = {MEMBRANE: mem, STRAIN_LIMIT_LAYER: sll}
         facets = {"clamp": clamp, "free_end": free_end, "cavity": cavity_faces}
         plane_faces = list(cut)
         for k, tags in enumerate(particle_tags):

@@ -1,4 +1,5 @@
-"""Actuator metrics as pure functions of node positions (DESIGN.md sections 6 and 7).
+"""Actuator metrics as pure functions of node positions (DESIGN.md sections 6 and 7), and the one
+pass that measures a state with them (:func:`measure`, from the model's :class:`Gauges`).
 
 Every function takes reference positions ``X`` and current positions ``x`` as arrays of shape
 (m, 2) in mm, in the (x, z) plane of DESIGN.md section 6 (a 3D actuator's are (m, 3), (x, y, z),
@@ -13,7 +14,7 @@ points (-R + R cos p, -R sin p); its tangent at p has turned clockwise by p, and
 angle is +p.
 
 The names, units and meanings of the metrics an actuator run reports are defined once here, in
-:data:`STATE_METRICS` (measured on a state: ``hydrojam.actuator.model.measure``), :data:`RUN_FIELDS`
+:data:`STATE_METRICS` (measured on a state: :func:`measure`), :data:`RUN_FIELDS`
 (about the run: ``SimulationResult.metrics``) and :data:`HISTORY_FIELDS` (the columns of
 history.csv); metrics.json, history.csv, the sweep table and the CLI summary derive from them.
 """
@@ -22,9 +23,13 @@ from __future__ import annotations
 
 from collections.abc import Hashable, Iterable
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
+
+if TYPE_CHECKING:  # the gauges hold the model's solid and contact; the pure functions need neither
+    from hydrojam.fem.assembly import Solid
+    from hydrojam.fem.contact import Contact
 
 @dataclass(frozen=True)
 class Metric:
@@ -586,3 +591,125 @@ def contacts_per_particle(
         return 0.0
     ends = sum(int(a in particles) + int(b in particles) for a, b in pairs)
     return ends / len(particles)
+
+
+# ------------------------------------------------------------------------------------------------
+# Measuring a state: every state metric in one pass
+
+
+@dataclass(frozen=True, eq=False)
+class Gauges:
+    """What the state metrics read of an actuator, fixed when its model is built
+    (:func:`hydrojam.actuator.model.build_model`, ``ActuatorModel.gauges``): :func:`measure`
+    needs nothing else. Node indices are into the model's mesh.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, d)
+        The nodes' as-prepared positions [mm] (d = 2 or 3: the model's dimension).
+    free_end_nodes : ndarray of int, shape (m,)
+        The free-end face's nodes.
+    centreline_nodes : ndarray of int, shape (c,)
+        The strain-limit layer's mid-line (3D: its mid-surface's line on y = 0), ordered from the
+        clamp.
+    cavity_segments : ndarray of int, shape (k, d)
+        The cavity wall's straight pieces: segments in 2D, triangles in 3D.
+    particle_ids : tuple of int
+        The particles' contact components.
+    reference_volume : float
+        The particles' as-prepared total area [mm^2] (2D: of circles of the design's particle
+        diameter) or volume [mm^3] (3D: of the meshed particles, their halves in a half model).
+    solid : Solid
+        The model's solid (:class:`hydrojam.fem.assembly.Solid`): the particles' current volumes.
+    particle_block : str
+        The name of its block holding the particles' cells, particle by particle.
+    particle_bounds : ndarray of int, shape (n_particles - 1,)
+        Where each particle's cells start in that block, after the first particle's.
+    contact : Contact
+        The model's contact (:class:`hydrojam.fem.contact.Contact`): the component pairs in contact.
+    """
+
+    reference: np.ndarray
+    free_end_nodes: np.ndarray
+    centreline_nodes: np.ndarray
+    cavity_segments: np.ndarray
+    particle_ids: tuple[int, ...]
+    reference_volume: float
+    solid: Solid
+    particle_block: str
+    particle_bounds: np.ndarray
+    contact: Contact
+
+
+def particle_volumes(gauges: Gauges, x: np.ndarray) -> np.ndarray:
+    """Current area (2D) [mm^2] or volume (3D) [mm^3] of each particle, det F integrated over its
+    reference cells (the half of each particle in a 3D half model).
+
+    Parameters
+    ----------
+    gauges : Gauges
+        The actuator's gauges.
+    x : ndarray, shape (n, d)
+        Positions of the mesh's nodes [mm].
+
+    Returns
+    -------
+    ndarray, shape (n_particles,)
+    """
+    per_cell = gauges.solid.current_volumes(x)[gauges.particle_block]
+    return np.array([part.sum() for part in np.split(per_cell, gauges.particle_bounds)])
+
+
+def measure(gauges: Gauges, x: np.ndarray) -> dict:
+    """The state metrics of DESIGN.md section 7 at one state, in one pass.
+
+    One value per entry of :data:`STATE_METRICS` (names, units and meanings are defined there),
+    in that order. The bending angle is the free-end face's rotation (its best-fit line in 2D;
+    in 3D the line its best-fit plane cuts in the x-z plane), taken on the turn that the
+    centreline's unwrapped rotation picks; the tip displacement is that of the face's node
+    centroid (in 3D its x and z); the centreline profile is in the x-z plane. Particle and cavity
+    areas (3D: volumes) give the packing fraction and the mean swelling ratio (over
+    ``reference_volume``); a 3D half model measures its half, whose ratios are the whole
+    actuator's by symmetry. Contacts per particle: particle-particle pairs count for both,
+    particle-wall pairs once.
+
+    Parameters
+    ----------
+    gauges : Gauges
+        The actuator's gauges (``ActuatorModel.gauges``).
+    x : ndarray, shape (n, d)
+        Positions of the mesh's nodes [mm] (d = 2 or 3, the model's dimension).
+
+    Returns
+    -------
+    dict
+        Metric name -> value in the metric's unit (None where undefined).
+    """
+    X = gauges.reference
+    fe, cl = gauges.free_end_nodes, gauges.centreline_nodes
+    if X.shape[1] == 3:
+        xz = [0, 2]
+        dx, dz = tip_displacement(X[fe][:, xz], x[fe][:, xz])
+        profile = centreline_profile(X[cl][:, xz], x[cl][:, xz])
+        angle = bending_angle_3d_deg(X[fe], x[fe])
+        cavity = enclosed_volume(x, gauges.cavity_segments)
+    else:
+        dx, dz = tip_displacement(X[fe], x[fe])
+        profile = centreline_profile(X[cl], x[cl])
+        angle = bending_angle_deg(X[fe], x[fe])
+        cavity = polygon_area(x, gauges.cavity_segments)
+    particles = float(particle_volumes(gauges, x).sum())
+    ci = curling_index(profile)
+    # the face's rotation is known modulo a turn: the centreline's, unwrapped, picks the turn
+    angle = unwrapped_angle_deg(angle, float(np.degrees(profile.rotation[-1])))
+    values = {
+        "bending_angle_deg": float(angle) + 0.0,  # + 0.0: no "-0.0" in results
+        "tip_dx_mm": float(dx) + 0.0,
+        "tip_dz_mm": float(dz) + 0.0,
+        "curling_index": None if ci is None else float(ci),
+        "max_curvature_per_mm": float(np.max(np.abs(profile.curvature))),
+        "packing_fraction": packing_fraction(particles, cavity),
+        "contacts_per_particle": contacts_per_particle(gauges.contact.contact_pairs(x), gauges.particle_ids),
+        "mean_swelling_ratio": float(particles / gauges.reference_volume),
+    }
+    return {m.name: values[m.name] for m in STATE_METRICS}

@@ -8,30 +8,19 @@ stresses MPa, forces N/mm (2D, per unit depth).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.contact import Contact, default_settings
 from hydrojam.actuator.design import Design, DesignError
-from hydrojam.fem.elements import element_for_meshio_type
+from hydrojam.fem.elements import element_for_meshio_type, straight_pieces
 from hydrojam.materials.energies import Hydrogel, Material
 from hydrojam.fem.mesh import Mesh
-from hydrojam.actuator.geometry import jitter_particles, mesh_design
-from hydrojam.actuator.metrics import (
-    STATE_METRICS,
-    bending_angle_3d_deg,
-    bending_angle_deg,
-    centreline_profile,
-    contacts_per_particle,
-    curling_index,
-    enclosed_volume,
-    packing_fraction,
-    polygon_area,
-    tip_displacement,
-    unwrapped_angle_deg,
-)
+from hydrojam.actuator.geometry import MEMBRANE, STRAIN_LIMIT_LAYER, jitter_particles, mesh_design
+from hydrojam.actuator.metrics import Gauges, particle_volumes
+from hydrojam.actuator.metrics import measure as measure_state
 from hydrojam.fem.problem import Problem, fixed
 from hydrojam.actuator.stimulus import (
     KineticVolumes,
@@ -54,9 +43,10 @@ WALL_COMPONENT = -1  # contact component of the membrane and strain-limit layer 
 #: body ids written to results (cell data ``body_id``): particles are PARTICLE_BODY + k
 MEMBRANE_BODY, STRAIN_LIMIT_BODY, PARTICLE_BODY = 0, 1, 2
 
-#: names of the solid's blocks (= the mesh's cell groups of the membrane and the strain-limit
-#: layer; the particles' block holds every particle's cells, particle by particle)
-MEMBRANE, STRAIN_LIMIT_LAYER, PARTICLES = "membrane", "strain_limit_layer", "particles"
+#: names of the solid's blocks: MEMBRANE and STRAIN_LIMIT_LAYER (from ``actuator.geometry``: the
+#: mesh's cell groups of the membrane and the strain-limit layer) and PARTICLES, the block that
+#: holds every particle's cells, particle by particle
+PARTICLES = "particles"
 
 
 def check_supported(design: Design) -> None:
@@ -90,6 +80,7 @@ class ActuatorModel:
     cavity_segments: np.ndarray  # straight pieces of the cavity wall, node indices: (k, 2) segments in 2D, (k, 3) triangles in 3D
     body_id: np.ndarray  # (n_cells,) MEMBRANE_BODY, STRAIN_LIMIT_BODY, PARTICLE_BODY + k
     components: np.ndarray  # (n_nodes,) contact component of every node
+    gauges: Gauges  # what the state metrics read (actuator.metrics.measure)
     #: 3D half model: the nodes on the symmetry plane y = 0, held at u_y = 0 (None otherwise)
     symmetry_nodes: np.ndarray | None = None
 
@@ -107,7 +98,7 @@ class ActuatorModel:
         return self.path(s)
 
     def materials_at(self, s: float) -> dict[str, Material]:
-        """Material of every block by name ("membrane", "strain_limit_layer", "particles") at load
+        """Material of every block by name (MEMBRANE, STRAIN_LIMIT_LAYER, PARTICLES) at load
         parameter s (the gel at the stimulus of s)."""
         mu, T = self.path(s)
         return {MEMBRANE: self.membrane, STRAIN_LIMIT_LAYER: self.strain_limit, PARTICLES: self.gel.at(mu, T)}
@@ -156,22 +147,12 @@ def centreline_x(design: Design) -> float:
 
 def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
     x_mid = centreline_x(design)
-    nodes = np.unique(mesh.cells[mesh.cell_groups["strain_limit_layer"]])
+    nodes = np.unique(mesh.cells[mesh.cell_groups[STRAIN_LIMIT_LAYER]])
     tol = 1e-6 * design.length
     on = nodes[np.abs(mesh.points[nodes, 0] - x_mid) < tol]
     if mesh.dim == 3:  # the mid-surface's line on the plane y = 0
         on = on[np.abs(mesh.points[on, 1]) < tol]
     return on[np.argsort(-mesh.points[on, -1])]
-
-
-#: straight pieces of a quadratic facet, corners then mid nodes (meshio order): 2 segments of a
-#: line3, 4 triangles of a triangle6
-_SPLIT_FACET = {3: np.array([[0, 2], [2, 1]]), 6: np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])}
-
-
-def _straight_pieces(facets: np.ndarray) -> np.ndarray:
-    table = _SPLIT_FACET.get(facets.shape[1])
-    return facets if table is None else facets[:, table].reshape(-1, table.shape[1])
 
 
 def build_model(design: Design) -> ActuatorModel:
@@ -202,7 +183,7 @@ def build_model(design: Design) -> ActuatorModel:
     ])
     components = np.full(mesh.n_nodes, WALL_COMPONENT)
     body_id = np.full(mesh.n_cells, MEMBRANE_BODY)
-    body_id[mesh.cell_groups["strain_limit_layer"]] = STRAIN_LIMIT_BODY
+    body_id[mesh.cell_groups[STRAIN_LIMIT_LAYER]] = STRAIN_LIMIT_BODY
     for k, cells in enumerate(particle_cells):
         components[np.unique(mesh.cells[cells])] = k
         body_id[cells] = PARTICLE_BODY + k
@@ -229,7 +210,15 @@ def build_model(design: Design) -> ActuatorModel:
                                 friction_eps=design.friction_slip,
                                 **ccd)
     contact = Contact(mesh.points, facets, components, settings)
-    segments = _straight_pieces(mesh.facet_groups["cavity"])
+    segments = straight_pieces(mesh.facet_groups["cavity"], mesh.dim - 1)
+    centreline = _centreline(mesh, design)
+    # the particles' as-prepared total: in 2D the circles' area, in 3D the meshed volume (of their
+    # halves in a half model), measured once the gauges can measure it
+    circles = n_p * np.pi * design.particle_diameter**2 / 4
+    gauges = Gauges(mesh.points, mesh.group_nodes("free_end"), centreline, segments, tuple(range(n_p)), circles,
+                    solid, PARTICLES, np.cumsum([len(c) for c in particle_cells])[:-1], contact)
+    if design.dimension == 3:
+        gauges = replace(gauges, reference_volume=float(particle_volumes(gauges, mesh.points).sum()))
     if design.stimulus.schedule is not None:  # time-resolved: the particles' kinetics set the path
         path = timed_stimulus_path(design.hydrogel, design.stimulus.mu, design.stimulus.schedule,
                                    design.particle_diameter, design.hydrogel.diffusivity, dimension=design.dimension)
@@ -239,92 +228,25 @@ def build_model(design: Design) -> ActuatorModel:
     return ActuatorModel(
         design=design, mesh=mesh, solid=solid, contact=contact, path=path, membrane=membrane,
         strain_limit=strain_limit, gel=gel, clamp_nodes=mesh.group_nodes("clamp"),
-        free_end_nodes=mesh.group_nodes("free_end"), centreline_nodes=_centreline(mesh, design),
+        free_end_nodes=gauges.free_end_nodes, centreline_nodes=centreline,
         particle_cells=particle_cells, cavity_segments=segments, body_id=body_id, components=components,
-        symmetry_nodes=symmetry_nodes,
+        gauges=gauges, symmetry_nodes=symmetry_nodes,
     )
 
 
 # ------------------------------------------------------------------------------------------------
-# Measurements on a state
+# Measurements on a state: the metrics read them through the model's gauges, in one pass
 
 
 def particle_areas(model: ActuatorModel, x: np.ndarray) -> np.ndarray:
     """Current area (2D) [mm^2] or volume (3D) [mm^3] of each particle (n_particles,), integrated
-    det F over the reference (the half of each particle in a 3D half model)."""
-    per_cell = model.solid.current_volumes(x)[PARTICLES]  # the particles' cells, particle by particle
-    bounds = np.cumsum([len(c) for c in model.particle_cells])[:-1]
-    return np.array([part.sum() for part in np.split(per_cell, bounds)])
+    det F over the reference (the half of each particle in a 3D half model):
+    :func:`~hydrojam.actuator.metrics.particle_volumes` of the model's gauges."""
+    return particle_volumes(model.gauges, x)
 
 
 def measure(model: ActuatorModel, x: np.ndarray) -> dict:
-    """The metrics of DESIGN.md section 7 at one state.
-
-    One value per entry of :data:`~hydrojam.actuator.metrics.STATE_METRICS` (names, units and
-    meanings are defined there), in that order. Contacts per particle: particle-particle pairs
-    count for both, particle-wall pairs once.
-
-    Parameters
-    ----------
-    model : ActuatorModel
-        The model.
-    x : ndarray, shape (n, d)
-        Positions of the mesh's nodes [mm] (d = 2 or 3, the model's dimension).
-
-    Returns
-    -------
-    dict
-        Metric name -> value in the metric's unit (None where undefined).
-    """
-    if model.mesh.dim == 3:
-        return _measure_3d(model, x)
-    X = model.mesh.points
-    fe, cl = model.free_end_nodes, model.centreline_nodes
-    dx, dz = tip_displacement(X[fe], x[fe])
-    profile = centreline_profile(X[cl], x[cl])
-    areas = particle_areas(model, x)
-    cavity = polygon_area(x, model.cavity_segments)
-    ref_area = model.n_particles * np.pi * model.design.particle_diameter**2 / 4
-    pairs = model.contact.contact_pairs(x)
-    return _state_metrics(model, bending_angle_deg(X[fe], x[fe]), dx, dz, profile, float(areas.sum()),
-                          ref_area, cavity, pairs)
-
-
-def _state_metrics(model: ActuatorModel, angle: float, dx: float, dz: float, profile, particles: float,
-                   reference: float, cavity: float, pairs) -> dict:
-    """The state metrics in the registry's order from their measured pieces (2D areas [mm^2] or
-    3D volumes [mm^3] of the particles, their as-prepared total and the cavity)."""
-    ci = curling_index(profile)
-    # the face's rotation is known modulo a turn: the centreline's, unwrapped, picks the turn
-    angle = unwrapped_angle_deg(angle, float(np.degrees(profile.rotation[-1])))
-    values = {
-        "bending_angle_deg": float(angle) + 0.0,  # + 0.0: no "-0.0" in results
-        "tip_dx_mm": float(dx) + 0.0,
-        "tip_dz_mm": float(dz) + 0.0,
-        "curling_index": None if ci is None else float(ci),
-        "max_curvature_per_mm": float(np.max(np.abs(profile.curvature))),
-        "packing_fraction": packing_fraction(particles, cavity),
-        "contacts_per_particle": contacts_per_particle(pairs, set(range(model.n_particles))),
-        "mean_swelling_ratio": float(particles / reference),
-    }
-    return {m.name: values[m.name] for m in STATE_METRICS}
-
-
-def _measure_3d(model: ActuatorModel, x: np.ndarray) -> dict:
-    """:func:`measure` of a 3D actuator (DESIGN.md section 7), positions x (n, 3) [mm]: the bending
-    angle from the free-end face's best-fit plane, the (x, z) displacement of that face's node
-    centroid, the profile of the strain-limit layer's mid-surface along y = 0 (in the x-z
-    plane), particle and cavity volumes. The half model measures its half: the face's plane and
-    centroid, the volume ratios and the contacts per particle are those of the whole actuator
-    by symmetry. The swelling ratio is over the meshed particles' as-prepared volume."""
-    X = model.mesh.points
-    fe, cl = model.free_end_nodes, model.centreline_nodes
-    xz = [0, 2]
-    dx, dz = tip_displacement(X[fe][:, xz], x[fe][:, xz])
-    profile = centreline_profile(X[cl][:, xz], x[cl][:, xz])
-    volumes = particle_areas(model, x)
-    ref_volume = float(particle_areas(model, X).sum())
-    cavity = enclosed_volume(x, model.cavity_segments)
-    pairs = model.contact.contact_pairs(x)
-    return _state_metrics(model, bending_angle_3d_deg(X[fe], x[fe]), dx, dz, profile, float(volumes.sum()),
-                          ref_volume, cavity, pairs)
+    """The metrics of DESIGN.md section 7 at the nodes' positions ``x`` (n, d) [mm], as metric name
+    -> value: :func:`hydrojam.actuator.metrics.measure` of the model's gauges, where they are
+    defined (:data:`~hydrojam.actuator.metrics.STATE_METRICS`, in that order)."""
+    return measure_state(model.gauges, x)

@@ -15,36 +15,32 @@ from hydrojam._io import atomic_path
 from hydrojam.actuator.fields import cell_fields
 from hydrojam.actuator.metrics import centreline_profile
 from hydrojam.actuator.model import PARTICLE_BODY
-from hydrojam.fem.elements import element_for_meshio_type
-
-
-_TRI6_SPLIT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
+from hydrojam.fem.elements import ELEMENTS, straight_pieces
 
 
 def _outline_segments(mesh) -> np.ndarray:
-    """Boundary facets of a mesh as straight pieces (k, 2) of node indices."""
-    f = mesh.boundary_facets()
-    return f[:, [0, 2, 2, 1]].reshape(-1, 2) if f.shape[1] == 3 else f
+    """Boundary facets of a 2D mesh as straight pieces (k, 2) of node indices."""
+    return straight_pieces(mesh.boundary_facets(), 1)
 
 
-def _mid_section(model, fields):
+def _mid_section(X: np.ndarray, cells: np.ndarray, length: float, fields: dict):
     """A 3D actuator's section y = 0 as straight triangles: (triangles (k, 3) of node indices,
-    body id and swelling ratio of each, outline segments (m, 2)). The faces of the cells on the
+    body id and swelling ratio of each, outline segments (m, 2)), from its reference node
+    positions X (n, 3) [mm], its tetra10 cells (c, 10), its length [mm] (the scale of the
+    tolerance) and the cell fields "body_id" and "swelling_ratio". The faces of the cells on the
     y >= 0 side that lie on the plane y = 0 (the half model's cut faces, the whole model's
     mid-plane), each tri6 split into 4 triangles; the outline is their edges used once."""
-    mesh = model.mesh
-    X = mesh.points
-    tol = 1e-6 * model.design.length
-    local = element_for_meshio_type(mesh.cell_type).facets  # (4, 6) tri6 faces of a tetra10
-    upper = np.flatnonzero(X[mesh.cells[:, :4], 1].mean(axis=1) > 0.0)
-    faces = mesh.cells[upper][:, local]  # (c, 4, 6)
+    tol = 1e-6 * length
+    local = ELEMENTS["tet10"].facets  # (4, 6) tri6 faces of a tetra10
+    upper = np.flatnonzero(X[cells[:, :4], 1].mean(axis=1) > 0.0)
+    faces = cells[upper][:, local]  # (c, 4, 6)
     flat = np.all(np.abs(X[faces[..., :3], 1]) < tol, axis=2)
     owner = np.repeat(upper[:, None], local.shape[0], axis=1)[flat]
     faces = faces[flat]
-    tris = faces[:, _TRI6_SPLIT].reshape(-1, 3)
+    tris = straight_pieces(faces, 2)
     body = np.repeat(fields["body_id"][owner], 4)
     swell = np.repeat(fields["swelling_ratio"][owner], 4)
-    edges = faces[:, [0, 3, 3, 1, 1, 4, 4, 2, 2, 5, 5, 0]].reshape(-1, 2)
+    edges = straight_pieces(faces[:, ELEMENTS["tri6"].facets].reshape(-1, 3), 1)  # each face's rim
     _, first, counts = np.unique(np.sort(edges, axis=1), axis=0, return_index=True, return_counts=True)
     return tris, body, swell, edges[first[counts == 1]]
 
@@ -70,12 +66,12 @@ def plot_actuator(model, state, path: str | os.PathLike) -> None:
     mesh, X, x = model.mesh, model.mesh.points, state.x
     fields = cell_fields(model, x, state.s)
     if mesh.dim == 3:
-        tris, body, swell, seg = _mid_section(model, fields)
+        tris, body, swell, seg = _mid_section(X, mesh.cells, model.design.length, fields)
         X, x = X[:, [0, 2]], x[:, [0, 2]]
     else:
         cells = mesh.cells
-        tris = cells[:, _TRI6_SPLIT].reshape(-1, 3) if cells.shape[1] == 6 else cells
-        rep = 4 if cells.shape[1] == 6 else 1
+        tris = straight_pieces(cells, 2)
+        rep = len(tris) // len(cells)
         body = np.repeat(fields["body_id"], rep)
         swell = np.repeat(fields["swelling_ratio"], rep)
         seg = _outline_segments(mesh)

@@ -96,7 +96,7 @@ def vtu_mesh(model: ActuatorModel, state: StepState) -> meshio.Mesh:
     X, cells = model.mesh.points, model.mesh.cells
     if model.mesh.dim == 2:
         X, u = _xyz(X), _xyz(state.x - X)
-    elif getattr(model, "half", False):
+    elif model.half:
         X, cells, u, fields = mirrored_half(model, state.x, fields)
     else:
         u = state.x - X
@@ -257,7 +257,7 @@ class ResultWriter:
         metrics["provenance"] = run_provenance(model.design.replicas.index, model.design.replicas.seed)
         if plot:
             plot_actuator(model, final, self.out / "final.png")
-            if getattr(model.path, "timed", False):
+            if model.path.timed:
                 plot_angle_time(result.states, model.path.schedule, self.out / "angle_time.png")
         if result.resumed:
             metrics["provenance"]["resumed"] = [finite_or_none(r) for r in result.resumed]

@@ -20,6 +20,9 @@ water near what those kinetics allow (:class:`KineticVolumes`, the controller of
 "volume" term; docs/kinetics.md "Particles in contact"), so a confined particle departs from
 the free kinetics only on their time scale. Every path answers ``path(s) -> (mu, T)`` and
 ``path.time(s)`` (None on an untimed path).
+
+The gel's physics the paths use (unconfined stretches by continuation, mu_eff, the osmotic
+modulus) lives in :mod:`hydrojam.materials.swelling`; this module only lays the paths out.
 """
 
 from __future__ import annotations
@@ -28,28 +31,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hydrojam.materials.energies import HydrogelParams, mixing_g
+from hydrojam.materials.energies import HydrogelParams
 from hydrojam.materials.kinetics import mean_log_swelling, time_constant
-from hydrojam.materials.swelling import equilibrium_stretches
+from hydrojam.materials.swelling import effective_chemical_potential, free_log_volume, free_stretches, osmotic_modulus
 
 _N_KNOTS = 65
-
-
-def _free_stretches(params: HydrogelParams, mus, Ts, dimension: int) -> np.ndarray:
-    """Unconfined stretch from the dry network along a sequence of stimuli, followed by
-    continuation (the stable equilibrium nearest to the previous one): the branch the particles
-    follow. Plane strain in 2D (out-of-plane stretch held at lambda0), free in 3D."""
-    held = (params.lambda0,) if dimension == 2 else ()
-    out, prev = [], params.lambda0
-    for mu, T in zip(mus, Ts):
-        try:
-            roots = equilibrium_stretches(params, mu, T, held)
-        except ValueError:  # no equilibrium (unbounded swelling): the coordinate stays where it was
-            roots = np.empty(0)
-        if len(roots):
-            prev = float(roots[np.argmin(np.abs(np.log(roots / prev)))])
-        out.append(prev)
-    return np.asarray(out)
 
 
 @dataclass(frozen=True)
@@ -131,7 +117,7 @@ def stimulus_path(params: HydrogelParams, mu_target: float, T_target: float, kin
         return linear
     if kind != "swelling":
         raise ValueError(f"stimulus path must be 'swelling' or 'linear' (got {kind!r})")
-    lam = _free_stretches(params, mu0 + t * (mu_target - mu0), T0 + t * (T_target - T0), dimension)
+    lam = free_stretches(params, mu0 + t * (mu_target - mu0), T0 + t * (T_target - T0), dimension)
     logv = np.log(lam)
     total = logv[-1] - logv[0]
     if abs(total) < 1e-6:
@@ -158,31 +144,6 @@ _LOG_FIRST = 1e-3
 #: long hold needs steps that grow with the time since its start, not one step to its end
 _TIME_SHARE = 0.5
 _TIME_SCALE = 0.3
-
-
-def effective_chemical_potential(params: HydrogelParams, J, T, dimension: int = 2) -> np.ndarray:
-    """The chemical potential mu_eff [k_B T] at which the gel's unconfined equilibrium at
-    temperature T [K] holds exactly the volume ratio J (to the dry network): the free principal
-    stress n (l - 1/l) + (J/l) g(J; mu, T) vanishes (``nominal_stresses``), and
-    g(J; mu, T) = g(J; 0, T) - mu, so
-
-        3D (free, J = l^3):                  mu_eff = g(J; 0, T) + n (l - 1/l) / l^2
-        2D (plane strain, J = l^2 lambda0):  mu_eff = g(J; 0, T) + n (l - 1/l) / (l lambda0)
-
-    Vectorised over J and T (broadcast)."""
-    J, T = np.broadcast_arrays(np.asarray(J, dtype=float), np.asarray(T, dtype=float))
-    if dimension == 3:
-        lam = np.cbrt(J)
-        per = lam**2
-    else:
-        lam = np.sqrt(J / params.lambda0)
-        per = lam * params.lambda0
-    return mixing_g(params, J, 0.0, T) + params.n * (lam - 1.0 / lam) / per
-
-
-def _log_volume(params: HydrogelParams, lam: np.ndarray, dimension: int) -> np.ndarray:
-    """ln J of unconfined stretches (free in 3D, plane strain with lambda0 out of plane in 2D)."""
-    return 3.0 * np.log(lam) if dimension == 3 else 2.0 * np.log(lam) + np.log(params.lambda0)
 
 
 def schedule_temperature(schedule, times) -> np.ndarray:
@@ -274,7 +235,7 @@ def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_di
     (particle_diameter / 2) x the largest free stretch over lambda0 (Tanaka & Fillmore take the
     swollen radius; the largest is the slowest, a conservative time). Its mean ln J at each
     sampled time is held by free swelling at (mu_eff(t), T(t))
-    (:func:`effective_chemical_potential`, at most ``mu``); the load parameter is spread over the
+    (:func:`~hydrojam.materials.swelling.effective_chemical_potential`, at most ``mu``); the load parameter is spread over the
     samples half evenly over the (total variation of the) mean log swelling, as the "swelling"
     path does, so every load step gets a similar share of the change, and half evenly over the
     logarithmic time since each schedule point (in units of 0.3 tau), so that long holds get
@@ -306,12 +267,12 @@ def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_di
     # the radius first (it sets the time constant, hence the samples): the schedule's points
     # and a fine grid between them (the largest free swelling can lie inside a ramp)
     probe = np.unique(np.concatenate([np.linspace(a, b, _SEGMENT_SAMPLES + 1) for a, b in zip(pts[:-1, 0], pts[1:, 0])]))
-    lam_probe = _free_stretches(params, np.full(probe.size, float(mu)), schedule_temperature(pts, probe), dimension)
+    lam_probe = free_stretches(params, np.full(probe.size, float(mu)), schedule_temperature(pts, probe), dimension)
     radius = 0.5 * particle_diameter * max(lam_probe.max() / lam0, 1.0)
     times = sample_times(pts, time_constant(radius, diffusivity))
     Ts = schedule_temperature(pts, times)
-    lam = _free_stretches(params, np.full(times.size, float(mu)), Ts, dimension)  # continuation in time
-    surface = _log_volume(params, lam, dimension)
+    lam = free_stretches(params, np.full(times.size, float(mu)), Ts, dimension)  # continuation in time
+    surface = free_log_volume(params, lam, dimension)
     shape = "sphere" if dimension == 3 else "cylinder"
     mean = mean_log_swelling(times, surface, radius, diffusivity, shape, initial=3.0 * np.log(lam0), cells=cells)
     # never above the bath's: where the free kinetics hold more water than the bath allows at
@@ -340,17 +301,6 @@ def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_di
 #: shortest time step [in units of the particle's tau] the kinetic volume term assumes: a bound
 #: on its stiffness (K tau / dt), reached only by a step of no duration
 _MIN_STEP_TAU = 1e-6
-
-
-def osmotic_modulus(params: HydrogelParams, J: float, T: float, dimension: int = 2) -> float:
-    """The free gel's osmotic modulus K = (kT/nu) d mu_eff / d ln J [MPa] at volume ratio J (to the
-    dry network) and temperature T [K] (:func:`effective_chemical_potential`; plane strain in 2D):
-    the change of the bath's chemical potential, as a pressure, that changes the free gel's ln J
-    by one. Central difference in ln J (relative step 1e-5: error ~1e-10 of K)."""
-    h = 1e-5
-    up, down = effective_chemical_potential(params, J * np.exp(h), T, dimension), \
-        effective_chemical_potential(params, J * np.exp(-h), T, dimension)
-    return float(params.kT_over_nu * (up - down) / (2 * h))
 
 
 class KineticVolumes:

@@ -28,6 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from hydrojam.fem._env import positive_int
+from hydrojam.fem.elements import straight_pieces
 from hydrojam.fem.terms import EnergyTerm
 
 
@@ -37,25 +38,14 @@ from hydrojam.fem.terms import EnergyTerm
 # HYDROJAM_IPC_THREADS (a positive integer) overrides, read once at import.
 ipctk.set_num_threads(positive_int("HYDROJAM_IPC_THREADS", 1))
 
-# corner/mid-node splits of quadratic facets into straight primitives (meshio facet order)
-_SPLIT = {
-    2: np.array([[0, 1]]),
-    3: np.array([[0, 2], [2, 1]]),  # line3: corners 0, 1; mid 2
-}
-_SPLIT_TRI = {
-    3: np.array([[0, 1, 2]]),
-    6: np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]]),  # tri6: corners 0-2; mids (01) (12) (20)
-}
-
 
 def collision_primitives(facets: np.ndarray, dim: int) -> np.ndarray:
     """Straight collision primitives (segments in 2D, triangles in 3D) of boundary facets.
 
-    Quadratic facets are split at their mid-nodes, keeping the facets' orientation.
+    Quadratic facets are split at their mid-nodes, keeping the facets' orientation
+    (:func:`~hydrojam.fem.elements.straight_pieces`).
     """
-    facets = np.asarray(facets, dtype=np.int64)
-    table = (_SPLIT if dim == 2 else _SPLIT_TRI)[facets.shape[1]]
-    return facets[:, table].reshape(-1, table.shape[1])
+    return straight_pieces(np.asarray(facets, dtype=np.int64), dim - 1)
 
 
 @dataclass(frozen=True)

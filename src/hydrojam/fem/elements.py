@@ -36,6 +36,7 @@ __all__ = [
     "facet_measure",
     "physical_gradients",
     "quadrature",
+    "straight_pieces",
 ]
 
 _SHAPE_OF_DIM = {1: "line", 2: "triangle", 3: "tetrahedron"}
@@ -328,12 +329,61 @@ def element_for_meshio_type(cell_type: str) -> ReferenceElement:
         ) from None
 
 
+#: straight pieces of the elements of dimension 1 and 2 (node indices, meshio order: corners
+#: first, then mid-edge nodes): a line3 is 2 segments, a tri6 4 triangles (the three at its
+#: corners, then the middle one), each oriented like its element; a linear element is one piece
+_STRAIGHT_PIECES = {
+    (ELEMENTS[name].dim, ELEMENTS[name].nen): np.array(pieces)
+    for name, pieces in {
+        "line2": [[0, 1]],
+        "line3": [[0, 2], [2, 1]],
+        "tri3": [[0, 1, 2]],
+        "tri6": [[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]],
+    }.items()
+}
+
+
+def straight_pieces(cells: np.ndarray, dim: int) -> np.ndarray:
+    """The straight pieces of line or triangle elements: quadratic ones split at their mid-nodes.
+
+    This is how quadratic elements enter the collision mesh (segments in 2D, triangles in 3D),
+    the enclosed areas and volumes of the metrics, and the figures.
+
+    Parameters
+    ----------
+    cells : ndarray, shape (k, nen)
+        Node indices of k elements of dimension ``dim``: line2 or line3 (``dim`` 1: the facets
+        of a 2D mesh), tri3 or tri6 (``dim`` 2: the facets of a 3D mesh, or the cells of a 2D
+        one), in meshio's node order.
+    dim : {1, 2}
+        The elements' own dimension.
+
+    Returns
+    -------
+    ndarray, shape (k * p, dim + 1)
+        Node indices of the pieces, the p pieces of each element together (p = 2 for a line3, 4
+        for a tri6, 1 for a linear element), each oriented like its element.
+
+    Raises
+    ------
+    ValueError
+        For elements of another dimension or node count.
+    """
+    cells = np.asarray(cells)
+    try:
+        table = _STRAIGHT_PIECES[(dim, cells.shape[1])]
+    except KeyError:
+        raise ValueError(f"no line or triangle element of dimension {dim} with {cells.shape[1]} nodes "
+                         "(expected line2/line3 for dimension 1, tri3/tri6 for 2)") from None
+    return cells[:, table].reshape(-1, dim + 1)
+
+
 # --------------------------------------------------------------------------------------------
 # Isoparametric maps
 # --------------------------------------------------------------------------------------------
 
 
-def _det_inv(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _det_and_adjugate(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Determinant and adjugate (= det * inverse) of stacked square matrices, closed form."""
     d = J.shape[-1]
     if d == 1:
@@ -421,7 +471,7 @@ def physical_gradients(
     dN = element.grad(pts)  # (nq, nen, dim)
     # J_ij = dx_i / dxi_j, (ne, nq, dim, dim); affine elements: one Jacobian, broadcast over points
     J = _jacobians(coords, dN[:1] if element.order == 1 else dN)
-    det, adj = _det_inv(J)
+    det, adj = _det_and_adjugate(J)
     bad = ~(det > 0.0)
     if bad.any():
         e, q = np.argwhere(bad)[0]

@@ -111,7 +111,7 @@ class _Frozen(BaseModel):
 # The shared kernel
 
 
-def _det_inv(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _det_and_inverse(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """det F and F^-1 for stacks of 2x2 or 3x3 matrices (closed form: faster than LAPACK here)."""
     d = F.shape[-1]
     if d == 2:
@@ -153,7 +153,7 @@ class _InvariantMaterial:
         F = np.asarray(F, dtype=float)
         d = F.shape[-1]
         c = self._prestretch_sq
-        detF, Finv = _det_inv(F)
+        detF, Finv = _det_and_inverse(F)
         I1 = c * (np.einsum("...ij,...ij->...", F, F) + (3 - d))
         J = c**1.5 * detF
         ok = (detF > 0.0) & self._admissible(J)
@@ -693,4 +693,4 @@ class Hydrogel(_InvariantMaterial):
         ndarray, shape (...)
             J_dry [-].
         """
-        return self.params.lambda0**3 * _det_inv(np.asarray(F, dtype=float))[0]
+        return self.params.lambda0**3 * _det_and_inverse(np.asarray(F, dtype=float))[0]

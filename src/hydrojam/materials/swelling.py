@@ -324,3 +324,112 @@ def constrained_swelling(params: HydrogelParams, mu: float, T: float, held) -> S
         raise ValueError("held must be one or two positive stretches")
     T_c = transition_temperature(params, mu).T if mu <= 0 else np.inf  # no free-gel transition above 0
     return _equilibrium(params, mu, T, held, T_c)
+
+
+# ------------------------------------------------------------------------------------------------
+# Unconfined swelling: plane strain (dimension 2: a cylinder's out-of-plane stretch held at
+# lambda0) or free (dimension 3)
+
+
+def free_stretches(params: HydrogelParams, mus, Ts, dimension: int) -> np.ndarray:
+    """Unconfined stretch from the dry network along a sequence of stimuli, followed by
+    continuation (the stable equilibrium nearest to the previous one, from lambda0): the branch a
+    particle follows. Where a stimulus has no equilibrium (unbounded swelling) the stretch stays
+    where it was.
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    mus : sequence of float
+        Chemical potentials of the solvent [k_B T].
+    Ts : sequence of float
+        Temperatures [K], one per chemical potential.
+    dimension : {2, 3}
+        Plane strain (the out-of-plane stretch held at lambda0) or free swelling.
+
+    Returns
+    -------
+    ndarray
+        The stretch at each stimulus [-].
+    """
+    held = (params.lambda0,) if dimension == 2 else ()
+    out, prev = [], params.lambda0
+    for mu, T in zip(mus, Ts):
+        try:
+            roots = equilibrium_stretches(params, mu, T, held)
+        except ValueError:  # no equilibrium (unbounded swelling): the coordinate stays where it was
+            roots = np.empty(0)
+        if len(roots):
+            prev = float(roots[np.argmin(np.abs(np.log(roots / prev)))])
+        out.append(prev)
+    return np.asarray(out)
+
+
+def free_log_volume(params: HydrogelParams, lam: np.ndarray, dimension: int) -> np.ndarray:
+    """ln J [-] (J the volume ratio to the dry network) of unconfined stretches ``lam`` from the
+    dry network [-]: 3 ln lam free (dimension 3), 2 ln lam + ln lambda0 in plane strain (2)."""
+    return 3.0 * np.log(lam) if dimension == 3 else 2.0 * np.log(lam) + np.log(params.lambda0)
+
+
+def effective_chemical_potential(params: HydrogelParams, J, T, dimension: int = 2) -> np.ndarray:
+    """The chemical potential mu_eff [k_B T] at which the gel's unconfined equilibrium at
+    temperature T [K] holds exactly the volume ratio J (to the dry network): the free principal
+    stress n (l - 1/l) + (J/l) g(J; mu, T) vanishes (``nominal_stresses``), and
+    g(J; mu, T) = g(J; 0, T) - mu, so
+
+        3D (free, J = l^3):                  mu_eff = g(J; 0, T) + n (l - 1/l) / l^2
+        2D (plane strain, J = l^2 lambda0):  mu_eff = g(J; 0, T) + n (l - 1/l) / (l lambda0)
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    J : float or array_like
+        Volume ratio to the dry network [-].
+    T : float or array_like
+        Temperature [K] (broadcast against J).
+    dimension : {2, 3}, optional
+        Plane strain or free swelling.
+
+    Returns
+    -------
+    ndarray
+        mu_eff [k_B T], of the broadcast shape of J and T.
+    """
+    J, T = np.broadcast_arrays(np.asarray(J, dtype=float), np.asarray(T, dtype=float))
+    if dimension == 3:
+        lam = np.cbrt(J)
+        per = lam**2
+    else:
+        lam = np.sqrt(J / params.lambda0)
+        per = lam * params.lambda0
+    return mixing_g(params, J, 0.0, T) + params.n * (lam - 1.0 / lam) / per
+
+
+def osmotic_modulus(params: HydrogelParams, J: float, T: float, dimension: int = 2) -> float:
+    """The free gel's osmotic modulus K = (kT/nu) d mu_eff / d ln J [MPa] at volume ratio J (to the
+    dry network) and temperature T [K] (:func:`effective_chemical_potential`; plane strain in 2D):
+    the change of the bath's chemical potential, as a pressure, that changes the free gel's ln J
+    by one. Central difference in ln J (relative step 1e-5: error ~1e-10 of K).
+
+    Parameters
+    ----------
+    params : HydrogelParams
+        The gel.
+    J : float
+        Volume ratio to the dry network [-].
+    T : float
+        Temperature [K].
+    dimension : {2, 3}, optional
+        Plane strain or free swelling.
+
+    Returns
+    -------
+    float
+        K [MPa] (negative where the free gel is unstable).
+    """
+    h = 1e-5
+    up, down = effective_chemical_potential(params, J * np.exp(h), T, dimension), \
+        effective_chemical_potential(params, J * np.exp(-h), T, dimension)
+    return float(params.kT_over_nu * (up - down) / (2 * h))

@@ -10,7 +10,7 @@ from hydrojam._lazy import lazy_api
 _PUBLIC = {
     "hydrojam.paper.reproduce": ['reproduce'],
     "hydrojam.paper.study": ['PaperSweep', 'PAPER_SWEEPS', 'QUICK_MESH_SIZE', 'paper_study', 'paper_base', 'study_name'],
-    "hydrojam.paper.claims": ['Claim', 'Trend', 'ClaimResult', 'PAPER_CLAIMS', 'check_claim', 'check_claims', 'ANGLE_TOL', 'DISPLACEMENT_TOL'],
+    "hydrojam.paper.claims": ['Claim', 'Trend', 'ClaimResult', 'PAPER_CLAIMS', 'check_claim', 'check_claims', 'Verdict', 'ANGLE_TOL', 'DISPLACEMENT_TOL'],
     "hydrojam.paper.figures": ['plot_shapes', 'plot_trends', 'write_figures'],
     "hydrojam.paper.report": ['write_report', 'MODEL_DIFFERENCES'],
     "hydrojam.paper.compare": ['compare_points', 'PointComparison', 'CompareError'],

@@ -1,4 +1,4 @@
-"""Reading the rows of a sweep table (:class:`hydrojam.study.sweep.SweepTable` or plain dicts):
+"""Reading the rows of a sweep table (:class:`hydrojam.study.table.SweepTable` or plain dicts):
 numbers that may be missing, a point's status, one sweep's rows, a parameter value as text."""
 
 from __future__ import annotations
@@ -6,6 +6,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from hydrojam._io import finite_number
+from hydrojam.study.cache import PointStatus
+from hydrojam.study.table import SweepTable
 
 
 def number(v) -> float | None:
@@ -22,29 +24,30 @@ def truthy(v) -> bool | None:
     return bool(v)
 
 
-def point_status(row: dict) -> str:
-    """"ok", "not_converged", "failed" or "unfinished" (not run yet, or still running: a table
-    written without running, ``run_sweep(run=False)``); a row without status: from ``converged``."""
+#: the statuses a table's row may hold
+_ROW_STATUSES = (PointStatus.OK, PointStatus.NOT_CONVERGED, PointStatus.FAILED, PointStatus.UNFINISHED)
+
+
+def point_status(row: dict) -> PointStatus:
+    """OK, NOT_CONVERGED, FAILED or UNFINISHED (not run yet, or still running: a table written
+    without running, ``run_sweep(run=False)``); a row without status: from ``converged``."""
     status = row.get("status")
-    if status in ("ok", "not_converged", "failed", "unfinished"):
-        if status == "ok" and truthy(row.get("converged")) is False:
-            return "not_converged"
-        return status
+    if status in _ROW_STATUSES:
+        if status == PointStatus.OK and truthy(row.get("converged")) is False:
+            return PointStatus.NOT_CONVERGED
+        return PointStatus(status)
     conv = truthy(row.get("converged"))
-    return "ok" if conv else ("not_converged" if conv is False else "failed")
+    return PointStatus.OK if conv else (PointStatus.NOT_CONVERGED if conv is False else PointStatus.FAILED)
 
 
 def without_result(row: dict) -> bool:
     """True for a point with nothing to draw or compare: failed, or not finished yet."""
-    return point_status(row) in ("failed", "unfinished")
+    return point_status(row) in (PointStatus.FAILED, PointStatus.UNFINISHED)
 
 
-def rows_of(table, sweep: str) -> list[dict]:
-    """The rows of one sweep from a SweepTable (``select``), or from a plain list of rows."""
-    if hasattr(table, "select"):
-        selected = table.select(sweep)
-        return list(selected.rows if hasattr(selected, "rows") else selected)
-    rows = table.rows if hasattr(table, "rows") else table
+def rows_of(table: SweepTable | Sequence[dict], sweep: str) -> list[dict]:
+    """The rows of one sweep from a SweepTable (its ``rows``), or from a plain list of rows."""
+    rows = table if isinstance(table, Sequence) else table.rows
     return [r for r in rows if r.get("sweep") == sweep]
 
 

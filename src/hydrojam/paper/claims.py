@@ -21,7 +21,7 @@ range), else it agrees. A claim whose sweep has a point not finished yet (a tabl
 a study in progress, ``reproduce --report-only``) is undetermined whatever its finished points
 read, and its summary says what they read: that point may change any part, and the tolerance.
 
-With replicas (a table whose points carry ``<metric>_std``, :mod:`hydrojam.study.sweep`) the
+With replicas (a table whose points carry ``<metric>_std``, :mod:`hydrojam.study.table`) the
 values are the replicas' means, and a part agrees or disagrees only when it does beyond the
 spread: each comparison's distance from its threshold (e.g. v(b) - v(a) - tol for *rises*) must
 exceed the spread of what it compares, u = sqrt(s_a² + s_b²) with s the points' standard
@@ -34,6 +34,7 @@ Units: mm, K, degrees.
 
 from __future__ import annotations
 
+import enum
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -43,6 +44,7 @@ import numpy as np
 from hydrojam.actuator.metrics import metric
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of
 from hydrojam.paper.study import PaperSweep, paper_sweep
+from hydrojam.study.cache import PointStatus
 
 __all__ = [
     "ANGLE_TOL",
@@ -54,6 +56,7 @@ __all__ = [
     "DISPLACEMENT_TOL",
     "LINEAR_R2",
     "SPREAD_VERDICT",
+    "Verdict",
     "PAPER_CLAIMS",
     "Trend",
     "check_claim",
@@ -69,8 +72,31 @@ DISPLACEMENT_TOL = 0.10
 CURLING_MARGIN = 0.10
 #: "linear trend": coefficient of determination of a straight-line fit at least this
 LINEAR_R2 = 0.90
+
+
+class Verdict(enum.StrEnum):
+    """A claim's verdict; each member is the text the report writes, and equal to it as a string.
+
+    Attributes
+    ----------
+    AGREE : str
+        "agree": every part of the check agrees.
+    DISAGREE : str
+        "disagree": a part disagrees.
+    UNDETERMINED : str
+        "undetermined": a part lacks its points (missing, failed, not converged, not finished).
+    SPREAD : str
+        "undetermined (spread)": a part is left open by the replicas' spread.
+    """
+
+    AGREE = "agree"
+    DISAGREE = "disagree"
+    UNDETERMINED = "undetermined"
+    SPREAD = "undetermined (spread)"
+
+
 #: the verdict of a claim that the replicas' spread leaves open
-SPREAD_VERDICT = "undetermined (spread)"
+SPREAD_VERDICT = Verdict.SPREAD
 
 
 @dataclass(frozen=True)
@@ -236,13 +262,13 @@ class ClaimResult:
         The claim.
     summary : str
         Each part's numbers and the rule it applied.
-    verdict : str
+    verdict : Verdict
         "agree", "disagree", "undetermined" or "undetermined (spread)".
     """
 
     claim: Claim
     summary: str
-    verdict: str  # "agree" | "disagree" | "undetermined" | "undetermined (spread)"
+    verdict: Verdict
 
 
 def check_claims(table) -> list[ClaimResult]:
@@ -304,17 +330,17 @@ def check_claim(claim: Claim, table) -> ClaimResult:
         text += _skipped(series)
     oks = [ok for ok, _ in parts]
     if any(ok is False for ok in oks):
-        verdict = "disagree"
+        verdict = Verdict.DISAGREE
     elif any(ok is None for ok in oks) or not oks:
-        verdict = "undetermined"
+        verdict = Verdict.UNDETERMINED
     else:
-        verdict = SPREAD_VERDICT if any(ok == _SPREAD for ok in oks) else "agree"
+        verdict = Verdict.SPREAD if any(ok == _SPREAD for ok in oks) else Verdict.AGREE
     pending = sorted({p for s in series for p, why in s.problems.items() if why == _NOT_FINISHED})
-    if pending and verdict != "undetermined":
+    if pending and verdict != Verdict.UNDETERMINED:
         # a point still running may change any part (and the tolerance, from the sweep's largest value)
         at = f"{sweep.symbol} " + ", ".join(fmt_param(p, sweep.unit) for p in pending)
         return ClaimResult(claim, f"not final, {at} not finished; the finished points alone read {verdict}: "
-                                  + text, "undetermined")
+                                  + text, Verdict.UNDETERMINED)
     return ClaimResult(claim, text, verdict)
 
 
@@ -433,11 +459,11 @@ def _series(rows: Sequence[dict], sweep: PaperSweep, key: str, magnitude: bool, 
             continue
         requested.append(p)
         status, v = point_status(row), number(row.get(key))
-        if status == "failed":
+        if status == PointStatus.FAILED:
             problems[p] = "failed"  # its error is in the report's table of points
-        elif status == "unfinished":
+        elif status == PointStatus.UNFINISHED:
             problems[p] = _NOT_FINISHED
-        elif status == "not_converged":
+        elif status == PointStatus.NOT_CONVERGED:
             problems[p] = "not converged"
         elif v is None:
             problems[p] = f"no {name}"

@@ -20,7 +20,8 @@ from hydrojam._io import read_toml
 from hydrojam.actuator.design import Design
 from hydrojam.paper._rows import cell_pm, fmt_param, number, point_status, rows_of, without_result
 from hydrojam.paper.study import PAPER_SWEEPS, reproduce_command, study_name
-from hydrojam.study.sweep import SweepTable
+from hydrojam.study.cache import PointStatus
+from hydrojam.study.table import SweepTable
 
 __all__ = [
     "COMPARE_OPTION",
@@ -202,10 +203,10 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
     if r2 is None:
         return _plain("not run in 2D")
     for r, dim in ((r2, "2D"), (r3, "3D")):
-        if point_status(r) != "unfinished" and not _usable(r):
+        if point_status(r) != PointStatus.UNFINISHED and not _usable(r):
             return _plain(f"no comparison: the {dim} point failed ({r.get('error') or 'no result'})")
     for r, dim in ((r2, "2D"), (r3, "3D")):
-        if point_status(r) == "unfinished":
+        if point_status(r) == PointStatus.UNFINISHED:
             err = str(r.get("error") or "")
             where = err if err.startswith(("not finished", "not started")) else f"not finished ({err or '?'})"
             return _plain(f"no comparison yet: the {dim} point is {where}")
@@ -237,7 +238,7 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
             parts.append(_tip_up("2D", "3D", t2, z2, length))
         elif z3 > 0 > z2:
             parts.append(_tip_up("3D", "2D", t3, z3, length))
-    late = [dim for r, dim in ((r2, "2D"), (r3, "3D")) if point_status(r) == "not_converged"]
+    late = [dim for r, dim in ((r2, "2D"), (r3, "3D")) if point_status(r) == PointStatus.NOT_CONVERGED]
     if late:
         note = f" ({' and '.join(late)} not converged: an intermediate state)"
         last = parts[-1]

@@ -12,7 +12,6 @@ import os
 import textwrap
 from collections.abc import Sequence
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -20,9 +19,11 @@ from matplotlib.figure import Figure
 from hydrojam._io import atomic_path
 from hydrojam.actuator.metrics import centreline_points
 from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY, centreline_x
-from hydrojam.actuator.plots import _TRI6_SPLIT, _mid_section
+from hydrojam.fem.elements import straight_pieces
+from hydrojam.actuator.plots import _mid_section
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, without_result
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
+from hydrojam.study.cache import PointStatus
 
 __all__ = ["DPI", "SHAPES_MAX_COLUMNS", "figure_names", "plot_shapes", "plot_trends", "write_figures"]
 
@@ -86,12 +87,9 @@ def _drawing(mesh, source: str = "final.vtu") -> _Drawing:
         cells = np.asarray(block.data)
         body = (np.asarray(body_data[i]).reshape(-1) if body_data is not None
                 else np.full(len(cells), MEMBRANE_BODY))
-        if block.type == "triangle6":
-            tris.append(cells[:, _TRI6_SPLIT].reshape(-1, 3))
-            bodies.append(np.repeat(body, 4))
-        else:
-            tris.append(cells)
-            bodies.append(body)
+        pieces = straight_pieces(cells, 2)
+        tris.append(pieces)
+        bodies.append(np.repeat(body, len(pieces) // max(len(cells), 1)))
     if not tris:
         raise ValueError(f"no triangles in {source}")
     return pts, np.concatenate(tris), np.concatenate(bodies), outline, False
@@ -100,11 +98,9 @@ def _drawing(mesh, source: str = "final.vtu") -> _Drawing:
 def _section_y0(points: np.ndarray, cells: np.ndarray, body: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The section y = 0 of a 3D actuator's quadratic tetrahedra in reference ``points`` (n, 3)
     [mm]: straight triangles (k, 3) of node indices and their body ids, as ``final.png`` draws it
-    (:func:`hydrojam.actuator.plots._mid_section`, given the file's mesh in place of a model)."""
-    ref = SimpleNamespace(mesh=SimpleNamespace(points=points, cells=cells, cell_type="tetra10"),
-                          design=SimpleNamespace(length=float(np.ptp(points[:, 2])) or 1.0))
+    (:func:`hydrojam.actuator.plots._mid_section`, given the file's mesh)."""
     fields = {"body_id": body, "swelling_ratio": np.zeros(len(body))}
-    tris, bodies, _, _ = _mid_section(ref, fields)
+    tris, bodies, _, _ = _mid_section(points, cells, float(np.ptp(points[:, 2])) or 1.0, fields)
     return tris, bodies
 
 
@@ -156,7 +152,7 @@ def _current_drawing(point_dir: Path):
 
 def _failure_text(row: dict, reason: str | None = None) -> str:
     """Why a panel is empty, wrapped to fit it."""
-    if reason is None and point_status(row) == "unfinished":
+    if reason is None and point_status(row) == PointStatus.UNFINISHED:
         return "\n".join(textwrap.wrap(str(row.get("error") or "not finished"), 28)[:6])
     err = reason or str(row.get("error") or "no result")
     return "\n".join(textwrap.wrap(f"failed: {err}", 28)[:6])
@@ -205,7 +201,7 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         pdir = out / str(row.get("point_dir") or "")
         panel = {"row": row, "shape": None, "outline": None, "failed": None, "section": False, "now": None,
                  "line": None}
-        if point_status(row) == "unfinished" and row.get("point_dir"):
+        if point_status(row) == PointStatus.UNFINISHED and row.get("point_dir"):
             try:
                 current = _current_drawing(pdir)
             except Exception:  # noqa: BLE001 - a checkpoint being rewritten: the text panel instead
@@ -264,7 +260,7 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         if panel["failed"] is not None:
             ax.set_title(head, fontsize=9)
             ax.text(0.5, 0.5, panel["failed"], transform=ax.transAxes, ha="center", va="center", fontsize=7,
-                    color="0.3" if point_status(row) == "unfinished" else "tab:red")
+                    color="0.3" if point_status(row) == PointStatus.UNFINISHED else "tab:red")
             continue
         angle = number(row.get("bending_angle_deg"))
         title = head + (f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
@@ -284,9 +280,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         if panel["now"] is not None:
             ax.set_title(f"{head}\n{panel['now']}", fontsize=9, color="0.4")
             continue
-        if point_status(row) == "not_converged":
+        if point_status(row) == PointStatus.NOT_CONVERGED:
             title += " (not converged)"
-        ax.set_title(title, fontsize=9, color="tab:red" if point_status(row) == "not_converged" else "k")
+        ax.set_title(title, fontsize=9, color="tab:red" if point_status(row) == PointStatus.NOT_CONVERGED else "k")
     has_lines = any(p["line"] is not None for p in panels)
     lines_only = has_lines and all(p["shape"] is None for p in panels)
     handles = [] if lines_only else [Patch(color=_COLOURS["membrane"], label="membrane"),
@@ -354,7 +350,7 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
                 continue
             xs.append(p)
             ys.append(abs(v) if magnitude else v)
-            hollow.append(point_status(r) == "not_converged")
+            hollow.append(point_status(r) == PointStatus.NOT_CONVERGED)
             err.append(number(r.get(f"{key}_std")) or 0.0)
             ends = [number(r.get(f"{key}_min")), number(r.get(f"{key}_max"))]
             ends = [ys[-1] if e is None else (abs(e) if magnitude else e) for e in ends]
@@ -393,9 +389,9 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
     if replicas and max(replicas) > 1:
         caption += (f"\nmeans of {max(replicas):.0f} replicas per point; error bars ± one standard deviation, "
                     "bands the replicas' range")
-    failed = [r for r in rows if point_status(r) == "failed"]
+    failed = [r for r in rows if point_status(r) == PointStatus.FAILED]
     sym, _, u = _sweep_for(param, label, unit)
-    for what, left in (("failed", failed), ("not finished", [r for r in rows if point_status(r) == "unfinished"])):
+    for what, left in (("failed", failed), ("not finished", [r for r in rows if point_status(r) == PointStatus.UNFINISHED])):
         if left:
             caption += f"\n{what} (not drawn): " + ", ".join(f"{sym} = {fmt_param(number(r.get(param)), u)}"
                                                            for r in left)

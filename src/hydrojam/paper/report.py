@@ -20,12 +20,13 @@ from hydrojam.paper.claims import (
     DISPLACEMENT_TOL,
     DISAGREEMENT_REASONS_3D,
     PAPER_CLAIMS,
-    SPREAD_VERDICT,
+    Verdict,
     check_claims,
 )
 from hydrojam.paper.compare import comparison_lines
 from hydrojam.paper.figures import figure_names
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, paper_base, reproduce_command
+from hydrojam.study.cache import PointStatus
 
 __all__ = ["MODEL_DIFFERENCES", "MODEL_DIFFERENCES_3D", "model_differences", "write_report"]
 
@@ -103,11 +104,11 @@ def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
     for r in sorted_by(rows, sw.field):
         status = point_status(r)
         conv = truthy(r.get("converged"))
-        if status == "unfinished":  # its error says where it stands: "not started", "not finished: ..."
+        if status == PointStatus.UNFINISHED:  # its error says where it stands: "not started", "not finished: ..."
             note = r.get("error") or "not finished"
         else:
-            note = status if status != "failed" else f"failed: {r.get('error') or 'no result'}"
-        if status == "ok" and truthy(r.get("stabilisation_released")) is False:
+            note = str(status) if status != PointStatus.FAILED else f"failed: {r.get('error') or 'no result'}"
+        if status == PointStatus.OK and truthy(r.get("stabilisation_released")) is False:
             note += " (stabilisation not released)"
         lines.append(
             f"| {fmt_param(number(r.get(sw.field)))} | {_cell(r.get('bending_angle_deg'))} | "
@@ -131,7 +132,7 @@ def _tolerance_text() -> list[str]:
         "part of a check agrees or disagrees only beyond the spread: its distance from the threshold (e.g. "
         "v(b) − v(a) − tol for *rises*) must exceed u = √(s_a² + s_b²), s the points' standard deviations "
         "over the replicas (the spread of one filling against another). Otherwise the part, and the claim "
-        f"unless another part disagrees, is *{SPREAD_VERDICT}*, with the numbers.",
+        f"unless another part disagrees, is *{Verdict.SPREAD}*, with the numbers.",
         f"- Curling index: share of the strain-limit layer mid-line's rotation accumulated in the half nearest "
         f"the clamp (0.5 uniform bending, toward 1 curling); the transition check needs the median of PL ≥ 10 "
         f"to exceed that of PL ≤ 9 by {CURLING_MARGIN:g} and the largest rise between neighbouring points "
@@ -142,7 +143,7 @@ def _tolerance_text() -> list[str]:
         "A part of a check is *undetermined* where such an end point failed or did not converge, or fewer "
         "than two points lie in the range; other unusable points are skipped and named.",
         "- A claim *disagrees* if any part of its check does, else it is *undetermined* if any part is (for want "
-        f"of points), else *{SPREAD_VERDICT}* if any part is, else it *agrees*. In an interim report "
+        f"of points), else *{Verdict.SPREAD}* if any part is, else it *agrees*. In an interim report "
         "(`--report-only`) every claim of a sweep with a point not finished is *undetermined*, its summary "
         "beginning with what the finished points alone read.",
     ]
@@ -209,9 +210,8 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     n_points = len(by_key)
     compute = sum(number(r.get("wall_time_s")) or 0.0 for r in by_key.values())
     counts = {s: sum(1 for r in by_key.values() if point_status(r) == s)
-              for s in ("ok", "not_converged", "failed", "unfinished")}
-    verdicts = {v: sum(1 for c in results if c.verdict == v)
-                for v in ("agree", "disagree", "undetermined", SPREAD_VERDICT)}
+              for s in (PointStatus.OK, PointStatus.NOT_CONVERGED, PointStatus.FAILED, PointStatus.UNFINISHED)}
+    verdicts = {v: sum(1 for c in results if c.verdict == v) for v in Verdict}
     n_replicas = _replicated(all_rows)
 
     command = reproduce_command(quick, dim, n_replicas)
@@ -249,9 +249,9 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
         vals = vals or (sw.quick_values if quick else sw.values)
         L.append(f"- {sw.label}: {', '.join(f'{v:g}' for v in vals)} {'' if sw.unit == 'layers' else sw.unit}"
                  .rstrip() + f" ({sw.figures}).{not_run}")
-    L += [f"- {n_points} distinct points (the base point is shared by the three sweeps): {counts['ok']} converged, "
-          f"{counts['not_converged']} not converged, {counts['failed']} failed"
-          + (f", **{counts['unfinished']} not finished**." if counts["unfinished"] else "."),
+    L += [f"- {n_points} distinct points (the base point is shared by the three sweeps): {counts[PointStatus.OK]} converged, "
+          f"{counts[PointStatus.NOT_CONVERGED]} not converged, {counts[PointStatus.FAILED]} failed"
+          + (f", **{counts[PointStatus.UNFINISHED]} not finished**." if counts[PointStatus.UNFINISHED] else "."),
           (f"- Workers: {_workers_text(workers, scheduler)}; "
            f"wall time {'—' if number(wall_time_s) is None else duration(wall_time_s)}"
            + ("" if computed is None else f" (this run: {computed} of the {n_points} points computed, the others "
@@ -259,12 +259,12 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
            if ran else "- Nothing was run for this report (`--report-only`): it is written from the points "
                        "finished in this folder so far")
           + f"; compute time summed over points {duration(compute)} (a resumed run reuses finished points).",
-          f"- Claims: {verdicts['agree']} agree, {verdicts['disagree']} disagree, "
-          f"{verdicts['undetermined']} undetermined"
-          + (f", {verdicts[SPREAD_VERDICT]} {SPREAD_VERDICT}." if n_replicas > 1 else "."), ""]
-    if counts["unfinished"]:
-        one = counts["unfinished"] == 1
-        L += [f"**An interim report**: {counts['unfinished']} of the {n_points} points "
+          f"- Claims: {verdicts[Verdict.AGREE]} agree, {verdicts[Verdict.DISAGREE]} disagree, "
+          f"{verdicts[Verdict.UNDETERMINED]} undetermined"
+          + (f", {verdicts[Verdict.SPREAD]} {Verdict.SPREAD}." if n_replicas > 1 else "."), ""]
+    if counts[PointStatus.UNFINISHED]:
+        one = counts[PointStatus.UNFINISHED] == 1
+        L += [f"**An interim report**: {counts[PointStatus.UNFINISHED]} of the {n_points} points "
               + ("is not finished (its row says where it stands); every statement of its sweeps is undetermined "
                  "until it finishes. " if one else
                  "are not finished (their rows say where each stands); every statement of their sweeps is "
@@ -283,7 +283,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     L += ["## The paper's statements and hydrojam", ""]
     L += ["| # | paper (Fig.) | hydrojam computed | verdict | why (for disagree) |", "|---|---|---|---|---|"]
     for c in results:
-        reason = explanations.get(c.claim.id, c.claim.reason) if c.verdict == "disagree" else ""
+        reason = explanations.get(c.claim.id, c.claim.reason) if c.verdict == Verdict.DISAGREE else ""
         L.append(f"| {c.claim.id} | {_md(c.claim.paper)} ({c.claim.figure}) | {_md(c.summary)} | "
                  f"**{c.verdict}** | {_md(reason)} |")
     L += ["", "The reasons given for a disagreement are hypotheses from the model differences below, not findings.",

@@ -20,7 +20,8 @@ from hydrojam.paper.compare import read_2d_results
 from hydrojam.paper.figures import write_figures
 from hydrojam.paper.report import write_report
 from hydrojam.paper.study import paper_study
-from hydrojam.study.sweep import PointOutcome, SweepTable, run_sweep
+from hydrojam.study.sweep import PointOutcome, run_sweep
+from hydrojam.study.table import SweepTable
 
 __all__ = ["reproduce"]
 

@@ -9,7 +9,9 @@ from hydrojam._lazy import lazy_api
 
 _PUBLIC = {
     "hydrojam.study.spec": ['Study', 'StudyError', 'SweepSpec', 'Point', 'load_study', 'study_from_dict', 'write_study', 'design_key'],
-    "hydrojam.study.sweep": ['run_sweep', 'SweepTable', 'PointOutcome', 'SchedulerError'],
+    "hydrojam.study.sweep": ['run_sweep', 'PointOutcome', 'SchedulerError'],
+    "hydrojam.study.table": ['SweepTable'],
+    "hydrojam.study.cache": ['PointStatus'],
     "hydrojam.study.replicas": ['run_replicas', 'replica_study', 'ReplicaSummary', 'summarise'],
     "hydrojam.study.spread": ['Spread', 'spread'],
     "hydrojam.study.status": ['folder_status', 'FolderStatus', 'RunStatus', 'StatusError'],

@@ -31,9 +31,11 @@ from pathlib import Path
 from hydrojam._io import finite_or_none, write_text_atomic
 from hydrojam.actuator.design import Design, with_replicas
 from hydrojam.actuator.metrics import STATE_METRICS, metric
+from hydrojam.study.cache import PointStatus
 from hydrojam.study.spec import Study, SweepSpec
 from hydrojam.study.spread import Spread, spread
-from hydrojam.study.sweep import PointOutcome, SweepTable, replica_table, run_point, run_sweep
+from hydrojam.study.sweep import PointOutcome, run_point, run_sweep
+from hydrojam.study.table import SweepTable, replica_table
 
 __all__ = ["REPLICA_STUDY", "SUMMARY_METRICS", "ReplicaSummary", "replica_study", "run_replicas", "with_replicas"]
 
@@ -74,7 +76,7 @@ class ReplicaSummary:
     design : Design
         The design the replicas are of.
     runs : list of dict
-        One row per replica (:func:`hydrojam.study.sweep.replica_table`: replica, key, metrics,
+        One row per replica (:func:`hydrojam.study.table.replica_table`: replica, key, metrics,
         status, error, point_dir).
     stats : dict of str to Spread
         Metric name -> :class:`~hydrojam.study.spread.Spread` over the replicas with status ok
@@ -95,7 +97,7 @@ class ReplicaSummary:
     @property
     def used(self) -> list[int]:
         """The replicas in the statistics (status ok)."""
-        return [r["replica"] for r in self.runs if r.get("status") == "ok"]
+        return [r["replica"] for r in self.runs if r.get("status") == PointStatus.OK]
 
     @property
     def compute_time_s(self) -> float:
@@ -140,7 +142,7 @@ def summarise(design: Design, runs: list[dict], wall_time_s: float | None = None
     design : Design
         The design the replicas are of.
     runs : list of dict
-        Rows of :func:`~hydrojam.study.sweep.replica_table`, in replica order.
+        Rows of :func:`~hydrojam.study.table.replica_table`, in replica order.
     wall_time_s : float, optional
         The whole call's wall time [s], None when not measured.
 
@@ -148,7 +150,7 @@ def summarise(design: Design, runs: list[dict], wall_time_s: float | None = None
     -------
     ReplicaSummary
     """
-    stats = {name: spread([r.get(name) if r.get("status") == "ok" else None for r in runs])
+    stats = {name: spread([r.get(name) if r.get("status") == PointStatus.OK else None for r in runs])
              for name in SUMMARY_METRICS}
     return ReplicaSummary(design, runs, stats, wall_time_s)
 

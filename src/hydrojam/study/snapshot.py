@@ -16,7 +16,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from hydrojam._io import make_folder
+from hydrojam._io import FolderKind, make_folder
+from hydrojam.study.cache import PointStatus
 from hydrojam.study.spec import Point
 from hydrojam.study.status import current_state, folder_status
 
@@ -82,12 +83,12 @@ def write_snapshots(out: str | os.PathLike, dest: str | os.PathLike, on_run=None
     st = folder_status(out)
     written = []
     for run in st.runs:
-        if run.state not in ("unfinished", "failed"):
+        if run.state not in (PointStatus.UNFINISHED, PointStatus.FAILED):
             continue
         name = run.key or st.name
         if on_run is not None:
             on_run(name, run.points)
-        got = current_state(out / "points" / run.key if st.kind == "study" else out)
+        got = current_state(out / "points" / run.key if st.kind == FolderKind.STUDY else out)
         if got is None:
             continue
         model, state, releasing = got

@@ -18,7 +18,7 @@ The study file (every key optional except ``[[sweep]]``)::
     "stimulus.temperature" = [275, 285, 295]
 
 Points with equal resolved designs have equal :func:`design_key`, the name of their folder in a
-sweep's cache (:mod:`hydrojam.study.sweep`): the base point shared by two sweeps is computed once.
+sweep's cache (:mod:`hydrojam.study.cache`): the base point shared by two sweeps is computed once.
 """
 
 from __future__ import annotations

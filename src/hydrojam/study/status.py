@@ -14,15 +14,15 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from hydrojam._io import FOLDER_LOCK, finite_number, read_json_dict
+from hydrojam._io import FOLDER_LOCK, FolderKind, finite_number, read_json_dict
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress
+from hydrojam.study.cache import FINISHED, PointStatus, running_point
 from hydrojam.study.spec import Point, StudyError, load_study
-from hydrojam.study.sweep import running_point
 
 __all__ = ["FolderStatus", "RunStatus", "StatusError", "current_state", "folder_status", "release_metrics"]
 
 #: the states of a run, in the order a summary counts them
-STATES = ("ok", "not_converged", "failed", "unfinished", "not started")
+STATES = tuple(PointStatus)
 
 
 class StatusError(ValueError):
@@ -41,7 +41,7 @@ class RunStatus:
         The study points sharing it; empty for a single run, and for a point folder of the study's
         output folder that its study.toml does not name (one of sweeps run earlier into the same
         folder).
-    state : str
+    state : PointStatus
         ``ok`` / ``not_converged`` (finished: point.json or metrics.json), ``failed`` (point.json;
         a stopped run keeps its checkpoint and goes on from it), ``unfinished`` (a checkpoint or
         history.csv and no outcome: stopped, or running in another process) or ``not started``.
@@ -64,7 +64,7 @@ class RunStatus:
 
     key: str
     points: tuple[Point, ...]
-    state: str
+    state: PointStatus
     s: float | None = None
     bending_angle_deg: float | None = None
     wall_time_s: float | None = None
@@ -80,8 +80,8 @@ class FolderStatus:
 
     Parameters
     ----------
-    kind : {"study", "run"}
-        A study's output folder or a single run's.
+    kind : FolderKind
+        STUDY (a study's output folder) or RUN (a single run's).
     name : str
         The study's name, or the run folder's.
     runs : tuple of RunStatus
@@ -93,7 +93,7 @@ class FolderStatus:
         The study's replicas per point (1 for a run).
     """
 
-    kind: str
+    kind: FolderKind
     name: str
     runs: tuple[RunStatus, ...]
     lock: dict | None = None
@@ -118,19 +118,20 @@ def _status(folder: Path, key: str, points: tuple[Point, ...], outcome: dict | N
     """The status of the run in ``folder`` with ``outcome`` (point.json's fields: status, error,
     metrics, wall_time_s) where it ended."""
     updated = _updated(folder)
-    if outcome is not None and outcome.get("status") in ("ok", "not_converged"):
+    if outcome is not None and outcome.get("status") in FINISHED:
         metrics = outcome.get("metrics") or {}
         s = finite_number(metrics.get("s_reached"))
-        return RunStatus(key, points, outcome["status"], 1.0 if s is None and outcome["status"] == "ok" else s,
+        state = PointStatus(outcome["status"])
+        return RunStatus(key, points, state, 1.0 if s is None and state == PointStatus.OK else s,
                          finite_number(metrics.get("bending_angle_deg")), finite_number(outcome.get("wall_time_s")),
                          None, updated)
     running = running_point(points, folder)
     if outcome is not None:
-        state = "failed"
+        state = PointStatus.FAILED
     elif running is not None or (folder / CHECKPOINT).is_file():
-        state = "unfinished"
+        state = PointStatus.UNFINISHED
     else:
-        state = "not started"
+        state = PointStatus.NOT_STARTED
     error = None if outcome is None else outcome.get("error")
     if running is None:
         return RunStatus(key, points, state, updated=updated, error=error)
@@ -180,7 +181,7 @@ def _run_outcome(folder: Path) -> dict | None:
     metrics = read_json_dict(folder / "metrics.json")
     if metrics is None:
         return None
-    return {"status": "ok" if metrics.get("converged") else "not_converged", "metrics": metrics,
+    return {"status": PointStatus.OK if metrics.get("converged") else PointStatus.NOT_CONVERGED, "metrics": metrics,
             "wall_time_s": metrics.get("wall_time_s")}
 
 
@@ -209,10 +210,10 @@ def folder_status(out: str | os.PathLike, measure: bool = False) -> FolderStatus
     st = _folder_status(Path(out))
     if not measure:
         return st
-    folders = {r.key: Path(out) / "points" / r.key if st.kind == "study" else Path(out) for r in st.runs}
+    folders = {r.key: Path(out) / "points" / r.key if st.kind == FolderKind.STUDY else Path(out) for r in st.runs}
     return dataclasses.replace(st, runs=tuple(
         dataclasses.replace(r, release_metrics=release_metrics(folders[r.key]))
-        if r.state == "unfinished" and r.release is not None else r for r in st.runs))
+        if r.state == PointStatus.UNFINISHED and r.release is not None else r for r in st.runs))
 
 
 def _folder_status(out: Path) -> FolderStatus:
@@ -231,9 +232,9 @@ def _folder_status(out: Path) -> FolderStatus:
         # a rerun with fewer sweeps (`reproduce --sweep ...`) rewrites study.toml with those only
         others = sorted(f for f in (out / "points").glob("*") if f.is_dir() and f.name not in groups)
         runs += [_status(f, f.name, (), read_json_dict(f / "point.json")) for f in others]
-        return FolderStatus("study", study.name, tuple(runs), read_json_dict(out / FOLDER_LOCK), study.replicas)
+        return FolderStatus(FolderKind.STUDY, study.name, tuple(runs), read_json_dict(out / FOLDER_LOCK), study.replicas)
     if (out / "design.toml").is_file() and any((out / n).is_file()
                                                for n in ("history.csv", CHECKPOINT, "metrics.json")):
-        return FolderStatus("run", out.name, (_status(out, "", (), _run_outcome(out)),), read_json_dict(out / FOLDER_LOCK))
+        return FolderStatus(FolderKind.RUN, out.name, (_status(out, "", (), _run_outcome(out)),), read_json_dict(out / FOLDER_LOCK))
     raise StatusError(f"{out}: not an output folder of hydrojam (no study.toml, and no design.toml with a run's "
                       "history.csv, checkpoint.npz or metrics.json)")
