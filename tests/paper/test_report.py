@@ -78,6 +78,11 @@ def test_report_and_trends_with_replicas(study_dir, tmp_path):
     n_spread = sum(r.verdict == pclaims.SPREAD_VERDICT for r in results)
     assert n_spread >= 1 and f"{n_spread} {pclaims.SPREAD_VERDICT}." in text
     assert f"**{pclaims.SPREAD_VERDICT}**" in text and "u = √(s_a² + s_b²)" in text
+    # a run's count is of replica runs, not of points: each point is 4 of them
+    again = preport.write_report(out, replicated, quick=True, wall_time_s=60.0, computed=12,
+                                 base=with_replicas(pstudy.paper_base(True), 4)).read_text(encoding="utf-8")
+    n_points = len({r["key"] for r in rows})
+    assert f"(this run: 12 of the {4 * n_points} runs ({n_points} points x 4 replicas) computed" in again
 
 
 def _section(text: str, head: str) -> str:

@@ -296,7 +296,7 @@ def timed_stimulus_path(params: HydrogelParams, mu: float, schedule, particle_di
 
 
 # ------------------------------------------------------------------------------------------------
-# Water content held within a time step (docs/kinetics.md "Particles in contact: water in time")
+# Water content held within a time step (docs/kinetics.md "Particles in contact: water content within a time step")
 
 #: shortest time step [in units of the particle's tau] the kinetic volume term assumes: a bound
 #: on its stiffness (K tau / dt), reached only by a step of no duration

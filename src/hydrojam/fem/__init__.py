@@ -47,7 +47,7 @@ _PUBLIC = {
     "hydrojam.fem.meshing": ["rectangle", "disk", "box", "ball", "bonded_rectangles", "disks", "annulus",
                              "shell_sector", "gmsh_session", "extract_mesh"],
     "hydrojam.fem.assembly": ["Block", "Solid"],
-    "hydrojam.fem.terms": ["EnergyTerm", "LinearTerm", "ScaledTerm", "TimedTerm", "ViscousStabilisation",
+    "hydrojam.fem.terms": ["DampedTerm", "EnergyTerm", "LinearTerm", "ScaledTerm", "TimedTerm", "ViscousStabilisation",
                            "PressureTerm", "CentroidSpring", "body_load", "surface_load", "resultant_load"],
     "hydrojam.fem.volume": ["VolumeTerm", "LocalVolumeTerm"],
     "hydrojam.fem.contact": ["Contact", "ContactSettings", "default_settings"],

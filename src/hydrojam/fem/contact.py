@@ -33,8 +33,8 @@ from hydrojam.fem.terms import EnergyTerm
 
 
 # ipctk's parallel sums change the barrier gradient and Hessian in the last bits from call to call
-# on 2 threads, which jammed load paths amplify (identical runs took 553, 359 and 408 Newton
-# iterations; 429 every time on one thread, at no measurable cost): reproducible by default.
+# on 2 threads, which jammed load paths amplify into different paths (docs/contact.md, "Threads"):
+# one thread, reproducible, by default.
 # HYDROJAM_IPC_THREADS (a positive integer) overrides, read once at import.
 ipctk.set_num_threads(positive_int("HYDROJAM_IPC_THREADS", 1))
 

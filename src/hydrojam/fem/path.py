@@ -15,6 +15,7 @@ from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
 from hydrojam.fem.newton import (NewtonOptions, NewtonResult, NewtonStatus, Timings, lowest_mode, minimize,
                                  negative_curvature, sum_energy)
 from hydrojam.fem.problem import Problem
+from hydrojam.fem.terms import DampedTerm
 
 
 @dataclass(frozen=True)
@@ -519,10 +520,10 @@ def solve_path(
     previous: tuple[np.ndarray, float] | None = None  # the last accepted state but one, and ds since
     terms0 = problem.terms(0.0)
     damped = next((t for t in terms0 if t.name == options.damped_term), None)
-    base = getattr(damped, "scale", None)
-    if not base:  # no such term, or one switched off: nothing to adapt
-        damped = None
+    if not isinstance(damped, DampedTerm) or not damped.scale:  # none, or one switched off: nothing to adapt
+        damped, base = None, None
     else:
+        base = damped.scale
         damped.scale = base * options.damping_start
     if resume is None:
         for t in terms0:  # nothing lagged (friction) survives from an earlier path on the same terms

@@ -39,6 +39,7 @@ import abc
 import itertools
 import time
 from collections.abc import Callable, Iterable
+from typing import Protocol, runtime_checkable
 from dataclasses import dataclass
 
 import numpy as np
@@ -85,6 +86,19 @@ class EnergyTerm(abc.ABC):
         """Forces in play per DOF [N] for the convergence test: this term's gradient at x
         (``gradient``, when the caller has computed it at x, is returned as it is)."""
         return self.gradient(x) if gradient is None else gradient
+
+
+@runtime_checkable
+class DampedTerm(Protocol):
+    """A term whose weight the load path adapts (:attr:`hydrojam.fem.path.PathOptions.damped_term`,
+    a :class:`ViscousStabilisation`): ``scale`` [-] multiplies its energy, 0 switches it off."""
+
+    name: str
+    scale: float
+
+    def energy(self, x: np.ndarray) -> float: ...
+
+    def begin_step(self, x: np.ndarray) -> None: ...
 
 
 def by_name(terms: Iterable[EnergyTerm]) -> dict[str, EnergyTerm]:

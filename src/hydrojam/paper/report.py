@@ -41,7 +41,8 @@ MODEL_DIFFERENCES: tuple[str, ...] = (
     "a column rearranges (zig-zags) instead of pushing along its axis.",
     "Our membrane and strain-limit layer are compressible neo-Hookean Ecoflex 00-30 (G = 0.023 MPa, ν = 0.45); "
     "the paper does not give its elastomer parameters.",
-    "Our load path is quasi-static with viscous stabilisation, released at the end; a column of nearly "
+    "Our load path is quasi-static: every step is tried undamped, a viscous stabilisation comes in only where "
+    "a step snaps and is released at that step, so every reported state is an equilibrium; a column of nearly "
     "frictionless particles has many equilibria and round-off selects one, so an end state is path dependent, the more so "
     "the longer the chamber (measured spreads: docs/reproduce.md).",
     "The paper's trends are read from its figures and words (curling judged by eye; the text puts the "
@@ -243,6 +244,8 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                  "deviation over the replicas that converged, and a statement agrees or disagrees only beyond "
                  "the spread.")
     rerun = f"`{command} -o {out}`"
+    runs = (f"{n_points} points" if n_replicas <= 1
+            else f"{n_points * n_replicas} runs ({n_points} points x {n_replicas} replicas)")
     for sw in PAPER_SWEEPS:
         vals = sorted({v for v in (number(r.get(sw.field)) for r in rows_of(table, sw.name)) if v is not None})
         not_run = "" if vals else f" **Not run**: {rerun} adds it, reusing the finished points."
@@ -254,7 +257,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
           + (f", **{counts[PointStatus.UNFINISHED]} not finished**." if counts[PointStatus.UNFINISHED] else "."),
           (f"- Workers: {_workers_text(workers, scheduler)}; "
            f"wall time {'—' if number(wall_time_s) is None else duration(wall_time_s)}"
-           + ("" if computed is None else f" (this run: {computed} of the {n_points} points computed, the others "
+           + ("" if computed is None else f" (this run: {computed} of the {runs} computed, the others "
                                           "reused from earlier runs into this folder)")
            if ran else "- Nothing was run for this report (`--report-only`): it is written from the points "
                        "finished in this folder so far")
