@@ -630,7 +630,7 @@ def _interim_report(write, out: Path, quiet: bool) -> None:
     one, as a run counts them) are in each state and where the results are, and exit 1 when a
     finished one failed or stopped early."""
     from hydrojam.actuator.design import DesignError
-    from hydrojam.study.cache import PointStatus
+    from hydrojam.study.cache import ROW_STATUSES, PointStatus
     from hydrojam.study.table import run_states
 
     try:
@@ -639,8 +639,7 @@ def _interim_report(write, out: Path, quiet: bool) -> None:
         raise InputError(str(err)) from None
     table, path = result if isinstance(result, tuple) else (result, None)
     by_key = run_states(out, table)
-    counts = {st: sum(v == st for v in by_key.values())
-              for st in (PointStatus.OK, PointStatus.NOT_CONVERGED, PointStatus.FAILED, PointStatus.UNFINISHED)}
+    counts = {st: sum(v == st for v in by_key.values()) for st in ROW_STATUSES}
     console = Console(stderr=True)
     if not quiet:
         console.print(f"hydrojam: nothing run; {len(by_key)} distinct points ({len(table)} rows): "

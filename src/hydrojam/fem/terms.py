@@ -39,8 +39,8 @@ import abc
 import itertools
 import time
 from collections.abc import Callable, Iterable
-from typing import Protocol, runtime_checkable
 from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 import scipy.sparse as sp

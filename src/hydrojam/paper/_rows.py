@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from hydrojam._io import finite_number
-from hydrojam.study.cache import PointStatus
+from hydrojam.study.cache import ROW_STATUSES, PointStatus
 from hydrojam.study.table import SweepTable
 
 
@@ -24,15 +24,11 @@ def truthy(v) -> bool | None:
     return bool(v)
 
 
-#: the statuses a table's row may hold
-_ROW_STATUSES = (PointStatus.OK, PointStatus.NOT_CONVERGED, PointStatus.FAILED, PointStatus.UNFINISHED)
-
-
 def point_status(row: dict) -> PointStatus:
     """OK, NOT_CONVERGED, FAILED or UNFINISHED (not run yet, or still running: a table written
     without running, ``run_sweep(run=False)``); a row without status: from ``converged``."""
     status = row.get("status")
-    if status in _ROW_STATUSES:
+    if status in ROW_STATUSES:
         if status == PointStatus.OK and truthy(row.get("converged")) is False:
             return PointStatus.NOT_CONVERGED
         return PointStatus(status)

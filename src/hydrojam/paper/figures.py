@@ -19,8 +19,8 @@ from matplotlib.figure import Figure
 from hydrojam._io import atomic_path
 from hydrojam.actuator.metrics import centreline_points
 from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY, centreline_x
-from hydrojam.fem.elements import straight_pieces
 from hydrojam.actuator.plots import _mid_section
+from hydrojam.fem.elements import straight_pieces
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, without_result
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
 from hydrojam.study.cache import PointStatus

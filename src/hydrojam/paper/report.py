@@ -26,7 +26,7 @@ from hydrojam.paper.claims import (
 from hydrojam.paper.compare import comparison_lines
 from hydrojam.paper.figures import figure_names
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, paper_base, reproduce_command
-from hydrojam.study.cache import PointStatus
+from hydrojam.study.cache import ROW_STATUSES, PointStatus
 
 __all__ = ["MODEL_DIFFERENCES", "MODEL_DIFFERENCES_3D", "model_differences", "write_report"]
 
@@ -210,8 +210,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
         by_key.setdefault(r.get("key") or id(r), r)
     n_points = len(by_key)
     compute = sum(number(r.get("wall_time_s")) or 0.0 for r in by_key.values())
-    counts = {s: sum(1 for r in by_key.values() if point_status(r) == s)
-              for s in (PointStatus.OK, PointStatus.NOT_CONVERGED, PointStatus.FAILED, PointStatus.UNFINISHED)}
+    counts = {s: sum(1 for r in by_key.values() if point_status(r) == s) for s in ROW_STATUSES}
     verdicts = {v: sum(1 for c in results if c.verdict == v) for v in Verdict}
     n_replicas = _replicated(all_rows)
 

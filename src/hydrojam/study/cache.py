@@ -38,6 +38,7 @@ from hydrojam.study.spec import Point
 __all__ = [
     "FINISHED",
     "PointStatus",
+    "ROW_STATUSES",
     "RunningPoint",
     "finished_records",
     "point_progress",
@@ -78,6 +79,10 @@ class PointStatus(enum.StrEnum):
 
 #: the statuses of a finished point: its point.json is loaded, not run again
 FINISHED = frozenset({PointStatus.OK, PointStatus.NOT_CONVERGED})
+
+#: the statuses a results table's row may hold, in the order the summaries count them
+#: (NOT_STARTED is ``hydrojam status``'s alone)
+ROW_STATUSES = (PointStatus.OK, PointStatus.NOT_CONVERGED, PointStatus.FAILED, PointStatus.UNFINISHED)
 
 
 # -------------------------------------------------------------------- a point's record
