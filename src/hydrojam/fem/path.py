@@ -480,6 +480,40 @@ def settle(terms, x: np.ndarray, free: np.ndarray, force_scale: float, options: 
     return Settled(xs, negative, its, r, tol, spent)
 
 
+@dataclass
+class _Walk:
+    """What :func:`solve_path` carries from one attempt to the next: the last accepted state, the
+    increment and its history, the damped term's level, and an attempt that goes on (a run-out
+    undamped block, or the damped attempts' restart)."""
+
+    solver: LinearSolver
+    checker: LinearSolver | None
+    free: np.ndarray
+    shape: tuple
+    x: np.ndarray  # the last accepted state, flat [mm]
+    newton: NewtonOptions
+    damped: DampedTerm | None = None
+    base: float | None = None  # the damped term's built scale
+    s: float = 0.0
+    ds: float = 0.0
+    rejected: int = 0
+    ds_cut: float = 0.0
+    previous: tuple[np.ndarray, float] | None = None  # the last accepted state but one, and ds since
+    history: list[StepRecord] = dataclasses.field(default_factory=list)
+    timings: Timings = dataclasses.field(default_factory=Timings)
+    last_resort: bool = False
+    failed_here: int = 0
+    carry: np.ndarray | None = None  # an undamped attempt that ran out, going on (undamped_blocks)
+    carried: int = 0
+    carried_its: int = 0
+    restart: np.ndarray | None = None  # where the step's damped attempts start (damped_from_blocks)
+
+    def result(self, converged: bool, message: str) -> PathResult:
+        """The path's outcome at the last accepted state."""
+        return PathResult(self.x.reshape(self.shape), self.s, converged, message, self.history, self.timings,
+                          self.rejected)
+
+
 def solve_path(
     problem: Problem,
     options: PathOptions = PathOptions(),
@@ -505,175 +539,199 @@ def solve_path(
     it takes to go on from there; ``resume``: such a checkpoint, from which the path goes on
     (the equilibration at s = 0 skipped) instead of starting from the reference positions.
     """
+    walk = _start(problem, options, resume)
+    if isinstance(walk, PathResult):
+        return walk
+    while walk.s < 1.0 - options.end_tolerance:
+        walk.ds = min(walk.ds, 1.0 - walk.s)
+        s_try = walk.s + walk.ds
+        t0 = time.perf_counter()
+        terms, res = _attempt(problem, walk, s_try, options)
+        walk.timings.add(res.timings)
+        if on_attempt is not None:
+            on_attempt(s_try, walk.ds, res)
+        rel = None
+        damped = walk.damped
+        damped_energy = 0.0 if damped is None or not res.converged else damped.energy(res.x)
+        if res.converged and damped is not None and options.release.each_step:
+            path_scale = damped.scale
+            rel = release(terms, damped, res.x, walk.free, problem.force_scale, options.newton, walk.solver,
+                          options.release, walk.base, options.unphysical_terms)
+            walk.timings.add(rel.timings)
+            damped.scale = path_scale
+        if res.converged and (rel is None or rel.released):
+            _accept(problem, walk, s_try, terms, res, rel, damped_energy, t0, options, callback, on_checkpoint)
+        else:
+            stop = _reject(walk, s_try, res, rel, options)
+            if stop is not None:
+                return stop
+    return walk.result(True, "converged")
+
+
+def _start(problem: Problem, options: PathOptions, resume: PathCheckpoint | None) -> _Walk | PathResult:
+    """The walk at s = 0 (the reference positions equilibrated, every lagged quantity begun there)
+    or at ``resume``'s state; a PathResult where s = 0 cannot be equilibrated."""
     solver = LinearSolver(options.newton.linear_solver)
     # the stability check's own solver: its matrices never touch the Newton solver's pattern
     # and analysis, so the check leaves the path's round-off as it was
     checker = LinearSolver(options.newton.linear_solver) if options.stability_check else None
-    free = problem.free_mask()
-    shape = problem.X.shape
     x = problem.X.ravel().copy()
     problem.apply_dirichlet(x, 0.0)
-    tm = Timings()
-    history: list[StepRecord] = []
-    # equilibrate at s = 0 first (a no-op for a stress-free reference)
-    s, ds, rejected, ds_cut = 0.0, options.ds0, 0, 0.0
-    previous: tuple[np.ndarray, float] | None = None  # the last accepted state but one, and ds since
+    walk = _Walk(solver, checker, problem.free_mask(), problem.X.shape, x, options.newton, ds=options.ds0)
     terms0 = problem.terms(0.0)
     damped = next((t for t in terms0 if t.name == options.damped_term), None)
-    if not isinstance(damped, DampedTerm) or not damped.scale:  # none, or one switched off: nothing to adapt
-        damped, base = None, None
-    else:
-        base = damped.scale
-        damped.scale = base * options.damping_start
+    if isinstance(damped, DampedTerm) and damped.scale:  # none, or one switched off: nothing to adapt
+        walk.damped, walk.base = damped, damped.scale
+        damped.scale = walk.base * options.damping_start
     if resume is None:
         for t in terms0:  # nothing lagged (friction) survives from an earlier path on the same terms
-            t.begin_step(x.reshape(shape))
-        res0 = minimize(terms0, x.reshape(shape), free, problem.force_scale, options.newton, solver)
-        tm.add(res0.timings)
+            t.begin_step(x.reshape(walk.shape))
+        res0 = minimize(terms0, x.reshape(walk.shape), walk.free, problem.force_scale, options.newton, solver)
+        walk.timings.add(res0.timings)
         if not res0.converged:
-            msg = f"could not equilibrate the initial state (s = 0): {res0.message}"
-            return PathResult(x.reshape(shape), 0.0, False, msg, history, tm, 0)
-        x = res0.x.ravel().copy()
+            return walk.result(False, f"could not equilibrate the initial state (s = 0): {res0.message}")
+        walk.x = res0.x.ravel().copy()
+        return walk
+    walk.x = np.asarray(resume.x, dtype=float).ravel().copy()
+    walk.previous = resume.previous
+    walk.s, walk.ds, walk.rejected = float(resume.s), float(resume.ds), int(resume.rejected)
+    walk.ds_cut = float(resume.ds_cut) if resume.ds_cut is not None else (options.ds0 if walk.rejected else 0.0)
+    walk.history.extend(resume.history)
+    walk.timings.add(resume.timings)
+    solver.restore_pattern(resume.solver_pattern)
+    if walk.damped is not None:
+        walk.damped.scale = walk.base * resume.damping
+    return walk
+
+
+def _attempt(problem: Problem, walk: _Walk, s_try: float, options: PathOptions):
+    """One attempt at the step to ``s_try``: (its terms, Newton's result). Lagged quantities
+    (friction, stabilisation) freeze at the step's start, or where its damped attempts restart;
+    Newton starts from a run-out block's last iterate, that restart, or the predicted (and
+    extrapolated) state."""
+    x, shape = walk.x, walk.shape
+    terms = problem.terms(s_try)
+    x_bc = x.copy()
+    problem.apply_dirichlet(x_bc, s_try)
+    for t in terms:
+        t.begin_step((x if walk.restart is None else walk.restart).reshape(shape))
+    if walk.carry is not None:
+        x_start = walk.carry
+    elif walk.restart is not None:
+        x_start = walk.restart
     else:
-        x = np.asarray(resume.x, dtype=float).ravel().copy()
-        previous = resume.previous
-        s, ds, rejected = float(resume.s), float(resume.ds), int(resume.rejected)
-        ds_cut = float(resume.ds_cut) if resume.ds_cut is not None else (options.ds0 if rejected else 0.0)
-        history.extend(resume.history)
-        tm.add(resume.timings)
-        solver.restore_pattern(resume.solver_pattern)
-        if damped is not None:
-            damped.scale = base * resume.damping
-    message = "converged"
-    newton, last_resort, failed_here = options.newton, False, 0
-    carry, carried, carried_its = None, 0, 0  # an undamped attempt that ran out, going on (undamped_blocks)
-    restart = None  # where the step's damped attempts start (damped_from_blocks)
-    while s < 1.0 - options.end_tolerance:
-        ds = min(ds, 1.0 - s)
-        s_try = s + ds
-        t0 = time.perf_counter()
-        terms = problem.terms(s_try)
-        x_bc = x.copy()
-        problem.apply_dirichlet(x_bc, s_try)
-        # lagged quantities (friction, stabilisation) freeze at the start of the step, or where its
-        # damped attempts restart (damped_from_blocks)
-        for t in terms:
-            t.begin_step((x if restart is None else restart).reshape(shape))
-        if carry is not None:
-            x_start = carry
-        elif restart is not None:
-            x_start = restart
-        else:
-            x_start = _predictor(problem, terms, x, x_bc, free, solver)
-            if x_start is not None and previous is not None and options.extrapolate:
-                x_start = _extrapolated(terms, x, x_start, previous, ds, free, shape)
-        if x_start is None:
-            res = NewtonResult(x.reshape(shape), NewtonStatus.INADMISSIBLE_START, 0, np.inf, np.inf,
-                               "the prescribed displacement increment is not admissible", [], Timings())
-        else:
-            res = minimize(terms, x_start.reshape(shape), free, problem.force_scale, newton, solver)
-        tm.add(res.timings)
-        if on_attempt is not None:
-            on_attempt(s_try, ds, res)
-        rel = None
-        damped_energy = 0.0 if damped is None or not res.converged else damped.energy(res.x)
-        if res.converged and damped is not None and options.release.each_step:
-            path_scale = damped.scale
-            rel = release(terms, damped, res.x, free, problem.force_scale, options.newton, solver, options.release,
-                          base, options.unphysical_terms)
-            tm.add(rel.timings)
-            damped.scale = path_scale
-        if res.converged and (rel is None or rel.released):
-            newton, last_resort = options.newton, False
-            s = s_try
-            x_new = res.x if rel is None else rel.x
-            previous = (x, ds)
-            x = x_new.ravel().copy()
-            negative = None
-            its = carried_its + res.iterations + (0 if rel is None else rel.iterations)
-            carry, carried, carried_its, restart = None, 0, 0, None
-            if rel is not None:
-                residual, tolerance = rel.residual, rel.tolerance
-            else:  # undamped, or a stabilised state whose residual includes the viscous force
-                tolerance = physical_residual(terms, x_new, free, problem.force_scale, options.newton, ())[1]
-                residual = res.residual
-            if checker is not None:
-                physical = [t for t in terms if t.name not in options.unphysical_terms]
-                negative = negative_curvature(physical, x_new, free, checker, options.newton)
-                final = s >= 1.0 - options.end_tolerance
-                if negative and (options.settle == "every" or (options.settle == "final" and final)):
-                    settled = settle(physical, x_new, free, problem.force_scale, options, solver, checker)
-                    tm.add(settled.timings)
-                    its += settled.iterations
-                    if settled.negative == 0:
-                        x_new, negative = settled.x, 0
-                        x = x_new.ravel().copy()
-                        residual, tolerance = settled.residual, settled.tolerance
-            energy = res.energy if x_new is res.x else sum_energy(terms, x_new)
-            rec = StepRecord(s, ds, its, residual, energy,
-                             time.perf_counter() - t0, negative, None if damped is None else damped.scale / base,
-                             failed_here, tolerance, 0 if rel is None else len(rel.rounds),
-                             0 if rel is None else rel.iterations, damped_energy)
-            failed_here = 0
-            history.append(rec)
-            if callback is not None:
-                callback(s, x_new, rec)
-            easy = its <= options.easy_iterations
-            if easy:
-                ds = min(ds * options.grow, options.ds_max)
-            elif options.recover and ds < ds_cut:
-                ds = min(ds * options.grow, ds_cut)
-            lowest = None if damped is None else base * options.damping_start
-            if damped is not None and damped.scale > lowest and (
-                    easy or (options.damping_relax_after > 0
-                             and _steps_at(history, damped.scale / base) >= options.damping_relax_after)):
-                damped.scale = (lowest if damped.scale <= base * (1 + 1e-12)
-                                else max(damped.scale / options.damping_growth, base))
-            if on_checkpoint is not None:
-                on_checkpoint(PathCheckpoint(x.copy(), s, ds, 1.0 if damped is None else damped.scale / base,
-                                             tuple(history), rejected, dataclasses.replace(tm), solver.pattern,
-                                             ds_cut, previous))
-        else:
-            ran_out_undamped = damped is not None and damped.scale == 0 and res.status is NewtonStatus.MAX_ITERATIONS
-            if ran_out_undamped and carried + 1 < options.undamped_blocks:
-                carry, carried, carried_its = res.x.ravel().copy(), carried + 1, carried_its + res.iterations
-                continue
-            if ran_out_undamped and options.damped_from_blocks:
-                restart, carried_its = res.x.ravel().copy(), carried_its + res.iterations
-            elif restart is None:
-                carried_its = 0
-            carry, carried = None, 0
-            rejected += 1
-            failed_here += 1
-            if rel is not None:  # the step converged stabilised but could not be released: a shorter one
-                res = dataclasses.replace(res, status=NewtonStatus.MAX_ITERATIONS, message=(
-                    f"the stabilisation could not be released in {len(rel.rounds)} rounds"))
-                ds_cut = max(ds_cut, ds)
-                ds *= 0.5
-                restart, carried_its = None, 0
-                if ds < options.ds_min:
-                    message = (f"load step failed at s = {s_try:.6g} (increment {2 * ds:.3g} < minimum "
-                               f"{options.ds_min:g}): {res.message}; last converged state kept at s = {s:.6g}")
-                    return PathResult(x.reshape(shape), s, False, message, history, tm, rejected)
-                continue
-            if (damped is not None and res.status is not NewtonStatus.INADMISSIBLE_START and options.damping_growth > 1
-                    and damped.scale * options.damping_growth <= options.max_damping * base * (1 + 1e-12)):
-                # retry the same increment, more damped (an undamped attempt: at the built damping)
-                damped.scale = base if damped.scale < base else damped.scale * options.damping_growth
-                continue
-            ds_cut = max(ds_cut, ds)
-            ds *= 0.5
-            restart, carried_its = None, 0
-            if ds < options.ds_min and not last_resort and res.status is NewtonStatus.MAX_ITERATIONS:
-                # A snap (jammed particles rearranging) has no nearby equilibrium: the state must
-                # travel, which takes many iterations, not a smaller increment. One long attempt.
-                last_resort, ds = True, 2.0 * ds
-                newton = dataclasses.replace(options.newton, max_iter=options.last_resort_factor * options.newton.max_iter)
-                continue
-            if ds < options.ds_min:
-                message = (
-                    f"load step failed at s = {s_try:.6g} (increment {2 * ds:.3g} < minimum {options.ds_min:g}): "
-                    f"{res.message}; last converged state kept at s = {s:.6g}"
-                )
-                return PathResult(x.reshape(shape), s, False, message, history, tm, rejected)
-    return PathResult(x.reshape(shape), s, True, message, history, tm, rejected)
+        x_start = _predictor(problem, terms, x, x_bc, walk.free, walk.solver)
+        if x_start is not None and walk.previous is not None and options.extrapolate:
+            x_start = _extrapolated(terms, x, x_start, walk.previous, walk.ds, walk.free, shape)
+    if x_start is None:
+        return terms, NewtonResult(x.reshape(shape), NewtonStatus.INADMISSIBLE_START, 0, np.inf, np.inf,
+                                   "the prescribed displacement increment is not admissible", [], Timings())
+    return terms, minimize(terms, x_start.reshape(shape), walk.free, problem.force_scale, walk.newton, walk.solver)
+
+
+def _accept(problem: Problem, walk: _Walk, s_try: float, terms, res: NewtonResult, rel: ReleaseResult | None,
+            damped_energy: float, t0: float, options: PathOptions, callback, on_checkpoint) -> None:
+    """Accept the step to ``s_try``: its state (released, and settled off a saddle where asked),
+    its record and the callbacks, the next increment and damping, the checkpoint."""
+    walk.newton, walk.last_resort = options.newton, False
+    walk.s = s_try
+    x_new = res.x if rel is None else rel.x
+    walk.previous = (walk.x, walk.ds)
+    walk.x = x_new.ravel().copy()
+    negative = None
+    its = walk.carried_its + res.iterations + (0 if rel is None else rel.iterations)
+    walk.carry, walk.carried, walk.carried_its, walk.restart = None, 0, 0, None
+    if rel is not None:
+        residual, tolerance = rel.residual, rel.tolerance
+    else:  # undamped, or a stabilised state whose residual includes the viscous force
+        tolerance = physical_residual(terms, x_new, walk.free, problem.force_scale, options.newton, ())[1]
+        residual = res.residual
+    if walk.checker is not None:
+        physical = [t for t in terms if t.name not in options.unphysical_terms]
+        negative = negative_curvature(physical, x_new, walk.free, walk.checker, options.newton)
+        final = walk.s >= 1.0 - options.end_tolerance
+        if negative and (options.settle == "every" or (options.settle == "final" and final)):
+            settled = settle(physical, x_new, walk.free, problem.force_scale, options, walk.solver, walk.checker)
+            walk.timings.add(settled.timings)
+            its += settled.iterations
+            if settled.negative == 0:
+                x_new, negative = settled.x, 0
+                walk.x = x_new.ravel().copy()
+                residual, tolerance = settled.residual, settled.tolerance
+    damped, base = walk.damped, walk.base
+    energy = res.energy if x_new is res.x else sum_energy(terms, x_new)
+    rec = StepRecord(walk.s, walk.ds, its, residual, energy,
+                     time.perf_counter() - t0, negative, None if damped is None else damped.scale / base,
+                     walk.failed_here, tolerance, 0 if rel is None else len(rel.rounds),
+                     0 if rel is None else rel.iterations, damped_energy)
+    walk.failed_here = 0
+    walk.history.append(rec)
+    if callback is not None:
+        callback(walk.s, x_new, rec)
+    easy = its <= options.easy_iterations
+    if easy:
+        walk.ds = min(walk.ds * options.grow, options.ds_max)
+    elif options.recover and walk.ds < walk.ds_cut:
+        walk.ds = min(walk.ds * options.grow, walk.ds_cut)
+    lowest = None if damped is None else base * options.damping_start
+    if damped is not None and damped.scale > lowest and (
+            easy or (options.damping_relax_after > 0
+                     and _steps_at(walk.history, damped.scale / base) >= options.damping_relax_after)):
+        damped.scale = (lowest if damped.scale <= base * (1 + 1e-12)
+                        else max(damped.scale / options.damping_growth, base))
+    if on_checkpoint is not None:
+        on_checkpoint(PathCheckpoint(walk.x.copy(), walk.s, walk.ds, 1.0 if damped is None else damped.scale / base,
+                                     tuple(walk.history), walk.rejected, dataclasses.replace(walk.timings),
+                                     walk.solver.pattern, walk.ds_cut, walk.previous))
+
+
+def _reject(walk: _Walk, s_try: float, res: NewtonResult, rel: ReleaseResult | None,
+            options: PathOptions) -> PathResult | None:
+    """What follows a failed attempt at ``s_try``: an undamped block that ran out goes on, a
+    damped retry of the same increment, the increment halved, one last long attempt at the
+    smallest one; the path's (failed) result where none is left, else None (try again)."""
+    damped, base = walk.damped, walk.base
+    ran_out_undamped = damped is not None and damped.scale == 0 and res.status is NewtonStatus.MAX_ITERATIONS
+    if ran_out_undamped and walk.carried + 1 < options.undamped_blocks:
+        walk.carry, walk.carried = res.x.ravel().copy(), walk.carried + 1
+        walk.carried_its += res.iterations
+        return None
+    if ran_out_undamped and options.damped_from_blocks:
+        walk.restart, walk.carried_its = res.x.ravel().copy(), walk.carried_its + res.iterations
+    elif walk.restart is None:
+        walk.carried_its = 0
+    walk.carry, walk.carried = None, 0
+    walk.rejected += 1
+    walk.failed_here += 1
+    if rel is not None:  # the step converged stabilised but could not be released: a shorter one
+        res = dataclasses.replace(res, status=NewtonStatus.MAX_ITERATIONS, message=(
+            f"the stabilisation could not be released in {len(rel.rounds)} rounds"))
+        return _halve(walk, s_try, res, options, long_attempt=False)
+    if (damped is not None and res.status is not NewtonStatus.INADMISSIBLE_START and options.damping_growth > 1
+            and damped.scale * options.damping_growth <= options.max_damping * base * (1 + 1e-12)):
+        # retry the same increment, more damped (an undamped attempt: at the built damping)
+        damped.scale = base if damped.scale < base else damped.scale * options.damping_growth
+        return None
+    return _halve(walk, s_try, res, options, long_attempt=True)
+
+
+def _halve(walk: _Walk, s_try: float, res: NewtonResult, options: PathOptions,
+           long_attempt: bool) -> PathResult | None:
+    """Halve the increment after the failed attempt ``res`` at ``s_try``; below ``ds_min`` one last
+    attempt with a long Newton budget where Newton ran out (``long_attempt``), else the path ends
+    (its result, the last converged state kept). None: try again."""
+    walk.ds_cut = max(walk.ds_cut, walk.ds)
+    walk.ds *= 0.5
+    walk.restart, walk.carried_its = None, 0
+    if (long_attempt and walk.ds < options.ds_min and not walk.last_resort
+            and res.status is NewtonStatus.MAX_ITERATIONS):
+        # A snap (jammed particles rearranging) has no nearby equilibrium: the state must
+        # travel, which takes many iterations, not a smaller increment. One long attempt.
+        walk.last_resort, walk.ds = True, 2.0 * walk.ds
+        walk.newton = dataclasses.replace(options.newton,
+                                          max_iter=options.last_resort_factor * options.newton.max_iter)
+        return None
+    if walk.ds < options.ds_min:
+        return walk.result(False, f"load step failed at s = {s_try:.6g} (increment {2 * walk.ds:.3g} < minimum "
+                                  f"{options.ds_min:g}): {res.message}; last converged state kept at s = {walk.s:.6g}")
+    return None
