@@ -225,127 +225,163 @@ def simulate(
     """
     if options is None:
         options = TIMED_PATH if model.path.timed else ACTUATOR_PATH
-    t_start = time.perf_counter() - (0.0 if resume is None else resume.elapsed_s)
-    elastic, contact = _Clock(), _Clock()
-    if resume is not None:
-        elastic.seconds = float(resume.clocks.get("elastic", 0.0))
-        contact.seconds = float(resume.clocks.get("contact", 0.0))
-    stab = None
-    if stabilisation > 0:
-        mesh = model.mesh
-        w = lumped_volumes(mesh.points, mesh.cells, mesh.cell_volumes())
-        c = stabilisation * model.membrane.shear_modulus_ref / model.design.particle_diameter
-        stab = ViscousStabilisation(w, c, mesh.dim)
-    base = model.problem(tuple(extra_terms) + (() if stab is None else (stab,)))
-    clocks = {"elastic": elastic, "contact": contact}
-
-    def terms(s: float):
-        return [TimedTerm(t, clocks[t.name].add) if t.name in clocks else t for t in base.terms(s)]
-
-    problem = dataclasses.replace(base, terms=terms)
-    states: list[StepState] = []
-
-    def record(s: float, x: np.ndarray, iterations: int, negative: int | None = None,
-               residual: tuple[float, float] | None = None) -> None:
-        mu, T = model.stimulus(s)
-        if residual is None:  # the physics alone at x: every reported state is an equilibrium of it
-            residual = physical_residual(terms(s), x, problem.free_mask(), problem.force_scale, options.newton,
-                                         options.unphysical_terms)
-        st = StepState(len(states), float(s), float(mu), float(T), np.array(x, dtype=float),
-                       measure(model, x), int(iterations), time.perf_counter() - t_start, model.path.time(s),
-                       negative, float(residual[0]), float(residual[1]))
-        states.append(st)
-        if on_step is not None:
-            on_step(st)
-
-    digest = design_digest(model.design)
-    resumed: tuple = ()
-    ratio = [0.0]
-    if resume is None:
-        record(0.0, model.mesh.points, 0)
-    else:
-        from hydrojam._version import __version__
-
-        states.extend(checkpoint_states(resume))
-        ratio[0] = resume.energy_ratio
-        resumed = tuple(resume.resumed) + ({"s": states[-1].s, "state": states[-1].index, "version": __version__},)
-    path_ck: list[PathCheckpoint | None] = [None if resume is None else resume.path]
-
-    def save(release: ReleaseCheckpoint | None = None) -> None:
-        if checkpoint is None or path_ck[0] is None:
-            return
-        plain = [{f.name: getattr(st, f.name) for f in dataclasses.fields(StepState) if f.name != "x"}
-                 for st in states]
-        save_checkpoint(checkpoint, RunCheckpoint(
-            digest, tuple(plain), np.stack([st.x for st in states]), path_ck[0], release,
-            time.perf_counter() - t_start, {"elastic": elastic.seconds, "contact": contact.seconds}, ratio[0],
-            resumed))
-
-    def on_path_checkpoint(ck: PathCheckpoint) -> None:
-        path_ck[0] = ck
-        save()
-
-    def callback(s, x, rec):
-        if stab is not None:
-            energies = model.solid.with_materials(model.materials_at(s)).block_energies(x)
-            e_el = sum([energies[MEMBRANE], energies[STRAIN_LIMIT_LAYER]])  # the elastomers
-            if e_el > 0:
-                held = rec.damped_energy if options.release.each_step else stab.energy(x)
-                ratio[0] = max(ratio[0], held / e_el)
-        # a stabilised state (released only at s = 1): its physics' residual is measured in record
-        equilibrium = stab is None or options.release.each_step
-        record(s, x, rec.iterations, rec.negative_eigenvalues, (rec.residual, rec.tolerance) if equilibrium else None)
+    run = _Run(model, options, stabilisation, extra_terms, on_step, checkpoint, resume)
 
     def attempt(s, ds, res):
         if on_progress is not None:
             on_progress(float(s - ds) if not res.converged else float(s))
 
-    res = solve_path(problem, options, callback=callback, on_attempt=attempt,
-                     resume=None if resume is None else resume.path, on_checkpoint=on_path_checkpoint)
+    res = solve_path(run.problem, options, callback=run.on_accepted, on_attempt=attempt,
+                     resume=None if resume is None else resume.path, on_checkpoint=run.on_path_checkpoint)
     if not np.all(np.isfinite(res.x)):  # pragma: no cover - the solver never accepts such a state
         raise RuntimeError("the solver returned non-finite positions")
-    released = stab is None or options.release.each_step
+    released = run.stab is None or options.release.each_step
     newton_iterations = res.newton_iterations
     release_seconds, rounds = 0.0, []
-    if stab is not None and res.converged and not options.release.each_step:
-        before = resume.release if resume is not None else None
-        t_release = time.perf_counter() - (0.0 if before is None else before.seconds)
-
-        def on_round(ck: ReleaseCheckpoint) -> None:
-            seconds = time.perf_counter() - t_release
-            save(dataclasses.replace(ck, seconds=seconds))
-            if on_release is not None:
-                on_release(ReleaseProgress(len(ck.rounds), ck.iterations, ck.scale, seconds))
-
-        x, its, released, rounds = _release(problem, stab, res.x, options, terms, res.timings,
-                                            resume=before, on_round=on_round)
+    if run.stab is not None and res.converged and not options.release.each_step:
+        its, released, rounds, release_seconds = _release_at_end(run, res, resume, on_release)
         newton_iterations += its
-        negative = states[-1].negative_eigenvalues
-        if options.stability_check:  # the released state is the one reported: check it
-            physical = [t for t in terms(1.0) if t.name not in options.unphysical_terms]
-            negative = negative_curvature(physical, x, problem.free_mask(), LinearSolver(options.newton.linear_solver),
-                                          options.newton)
-        release_seconds = time.perf_counter() - t_release
-        states.pop()
-        record(1.0, x, its, negative)
-    wall = time.perf_counter() - t_start
-    timings = {
-        "total": wall,
-        "elastic": elastic.seconds,
-        "contact": contact.seconds,
-        "linear_solve": res.timings.linear_solve,
-        "release": release_seconds,
-        "newton_iterations": res.timings.iterations,
-    }
-    message = res.message
-    if not released:
-        message += ("; the stabilisation could not be fully released at s = 1: the final state keeps "
-                    "a viscous force above the tolerance")
-    stabilisation_info = {"damping_N_per_mm3": 0.0 if stab is None else stab.damping,
-                          "max_energy_ratio": ratio[0], "released": released,
-                          "release_rounds": [{"scale": sc, "iterations": n, "converged": ok} for sc, n, ok in rounds]}
-    return SimulationResult(model, states, res.converged, message, wall, newton_iterations,
-                            res.rejected_steps, timings, stabilisation_info, resumed)
+    return run.result(res, released, newton_iterations, release_seconds, rounds)
+
+
+class _Run:
+    """One simulation's bookkeeping around its load path: the timed terms and the stabilisation,
+    the reported states (each passed to ``on_step``), the largest share of the elastomers' energy
+    the stabilisation held back, and the run's checkpoint."""
+
+    def __init__(self, model: ActuatorModel, options: PathOptions, stabilisation: float, extra_terms: tuple,
+                 on_step: Callable[[StepState], None] | None, checkpoint: str | os.PathLike | None,
+                 resume: RunCheckpoint | None):
+        self.model, self.options, self.on_step, self.checkpoint = model, options, on_step, checkpoint
+        self.t_start = time.perf_counter() - (0.0 if resume is None else resume.elapsed_s)
+        self.elastic, self.contact = _Clock(), _Clock()
+        if resume is not None:
+            self.elastic.seconds = float(resume.clocks.get("elastic", 0.0))
+            self.contact.seconds = float(resume.clocks.get("contact", 0.0))
+        self.stab = None
+        if stabilisation > 0:
+            mesh = model.mesh
+            w = lumped_volumes(mesh.points, mesh.cells, mesh.cell_volumes())
+            c = stabilisation * model.membrane.shear_modulus_ref / model.design.particle_diameter
+            self.stab = ViscousStabilisation(w, c, mesh.dim)
+        self._base = model.problem(tuple(extra_terms) + (() if self.stab is None else (self.stab,)))
+        self.problem = dataclasses.replace(self._base, terms=self.terms)
+        self.states: list[StepState] = []
+        self.digest = design_digest(model.design)
+        self.resumed: tuple = ()
+        self.ratio = 0.0
+        self.path_ck: PathCheckpoint | None = None if resume is None else resume.path
+        if resume is None:
+            self.record(0.0, model.mesh.points, 0)
+        else:
+            from hydrojam._version import __version__
+
+            self.states.extend(checkpoint_states(resume))
+            self.ratio = resume.energy_ratio
+            self.resumed = tuple(resume.resumed) + ({"s": self.states[-1].s, "state": self.states[-1].index,
+                                                     "version": __version__},)
+
+    def terms(self, s: float) -> list:
+        """The model's terms at s, the elastic and contact ones timed."""
+        clocks = {"elastic": self.elastic, "contact": self.contact}
+        return [TimedTerm(t, clocks[t.name].add) if t.name in clocks else t for t in self._base.terms(s)]
+
+    def record(self, s: float, x: np.ndarray, iterations: int, negative: int | None = None,
+               residual: tuple[float, float] | None = None) -> None:
+        """Report the state x at s: measured, kept and passed to ``on_step``."""
+        model, options = self.model, self.options
+        mu, T = model.stimulus(s)
+        if residual is None:  # the physics alone at x: every reported state is an equilibrium of it
+            residual = physical_residual(self.terms(s), x, self.problem.free_mask(), self.problem.force_scale,
+                                         options.newton, options.unphysical_terms)
+        st = StepState(len(self.states), float(s), float(mu), float(T), np.array(x, dtype=float),
+                       measure(model, x), int(iterations), time.perf_counter() - self.t_start, model.path.time(s),
+                       negative, float(residual[0]), float(residual[1]))
+        self.states.append(st)
+        if self.on_step is not None:
+            self.on_step(st)
+
+    def save(self, release: ReleaseCheckpoint | None = None) -> None:
+        """Rewrite the run's checkpoint (where one is kept and the path has given one)."""
+        if self.checkpoint is None or self.path_ck is None:
+            return
+        plain = [{f.name: getattr(st, f.name) for f in dataclasses.fields(StepState) if f.name != "x"}
+                 for st in self.states]
+        save_checkpoint(self.checkpoint, RunCheckpoint(
+            self.digest, tuple(plain), np.stack([st.x for st in self.states]), self.path_ck, release,
+            time.perf_counter() - self.t_start, {"elastic": self.elastic.seconds, "contact": self.contact.seconds},
+            self.ratio, self.resumed))
+
+    def on_path_checkpoint(self, ck: PathCheckpoint) -> None:
+        """The path's checkpoint after an accepted step: kept and saved."""
+        self.path_ck = ck
+        self.save()
+
+    def on_accepted(self, s: float, x: np.ndarray, rec) -> None:
+        """An accepted load step (:class:`~hydrojam.fem.path.StepRecord` ``rec``): the energy the
+        stabilisation held back, and the state reported."""
+        stab, options = self.stab, self.options
+        if stab is not None:
+            energies = self.model.solid.with_materials(self.model.materials_at(s)).block_energies(x)
+            e_el = sum([energies[MEMBRANE], energies[STRAIN_LIMIT_LAYER]])  # the elastomers
+            if e_el > 0:
+                held = rec.damped_energy if options.release.each_step else stab.energy(x)
+                self.ratio = max(self.ratio, held / e_el)
+        # a stabilised state (released only at s = 1): its physics' residual is measured in record
+        equilibrium = stab is None or options.release.each_step
+        self.record(s, x, rec.iterations, rec.negative_eigenvalues,
+                    (rec.residual, rec.tolerance) if equilibrium else None)
+
+    def result(self, res, released: bool, newton_iterations: int, release_seconds: float,
+               rounds: list) -> SimulationResult:
+        """The simulation's result after its path ``res`` (and its release at the end)."""
+        wall = time.perf_counter() - self.t_start
+        timings = {
+            "total": wall,
+            "elastic": self.elastic.seconds,
+            "contact": self.contact.seconds,
+            "linear_solve": res.timings.linear_solve,
+            "release": release_seconds,
+            "newton_iterations": res.timings.iterations,
+        }
+        message = res.message
+        if not released:
+            message += ("; the stabilisation could not be fully released at s = 1: the final state keeps "
+                        "a viscous force above the tolerance")
+        stabilisation_info = {"damping_N_per_mm3": 0.0 if self.stab is None else self.stab.damping,
+                              "max_energy_ratio": self.ratio, "released": released,
+                              "release_rounds": [{"scale": sc, "iterations": n, "converged": ok}
+                                                 for sc, n, ok in rounds]}
+        return SimulationResult(self.model, self.states, res.converged, message, wall, newton_iterations,
+                                res.rejected_steps, timings, stabilisation_info, self.resumed)
+
+
+def _release_at_end(run: _Run, res, resume: RunCheckpoint | None,
+                    on_release: Callable[[ReleaseProgress], None] | None):
+    """The stabilisation of a path that kept it on (``release.each_step`` off) released at s = 1:
+    the released state replaces the last one. Returns (Newton iterations, released, rounds,
+    seconds)."""
+    options, problem = run.options, run.problem
+    before = resume.release if resume is not None else None
+    t_release = time.perf_counter() - (0.0 if before is None else before.seconds)
+
+    def on_round(ck: ReleaseCheckpoint) -> None:
+        seconds = time.perf_counter() - t_release
+        run.save(dataclasses.replace(ck, seconds=seconds))
+        if on_release is not None:
+            on_release(ReleaseProgress(len(ck.rounds), ck.iterations, ck.scale, seconds))
+
+    x, its, released, rounds = _release(problem, run.stab, res.x, options, run.terms, res.timings,
+                                        resume=before, on_round=on_round)
+    negative = run.states[-1].negative_eigenvalues
+    if options.stability_check:  # the released state is the one reported: check it
+        physical = [t for t in run.terms(1.0) if t.name not in options.unphysical_terms]
+        negative = negative_curvature(physical, x, problem.free_mask(), LinearSolver(options.newton.linear_solver),
+                                      options.newton)
+    release_seconds = time.perf_counter() - t_release
+    run.states.pop()
+    run.record(1.0, x, its, negative)
+    return its, released, rounds, release_seconds
 
 
 def _release(problem, stab, x, options: PathOptions, terms, timings: Timings,
