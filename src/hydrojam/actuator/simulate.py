@@ -255,6 +255,7 @@ class _Run:
         self.model, self.options, self.on_step, self.checkpoint = model, options, on_step, checkpoint
         self.t_start = time.perf_counter() - (0.0 if resume is None else resume.elapsed_s)
         self.elastic, self.contact = _Clock(), _Clock()
+        self._clocks = {"elastic": self.elastic, "contact": self.contact}
         if resume is not None:
             self.elastic.seconds = float(resume.clocks.get("elastic", 0.0))
             self.contact.seconds = float(resume.clocks.get("contact", 0.0))
@@ -283,7 +284,7 @@ class _Run:
 
     def terms(self, s: float) -> list:
         """The model's terms at s, the elastic and contact ones timed."""
-        clocks = {"elastic": self.elastic, "contact": self.contact}
+        clocks = self._clocks
         return [TimedTerm(t, clocks[t.name].add) if t.name in clocks else t for t in self._base.terms(s)]
 
     def record(self, s: float, x: np.ndarray, iterations: int, negative: int | None = None,
