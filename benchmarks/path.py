@@ -95,6 +95,8 @@ VARIANTS = {
     "no_reach": {"solver": {"use_reach": False}},
     # every factorisation an LDL^T, the definite ones too (main factorises those by Cholesky in 3D)
     "ldlt": {"solver": {"use_cholesky": False}},
+    # the Cholesky factorisations in double (main factorises them in single and refines in double)
+    "double": {"solver": {"mixed_precision": False}},
 }
 
 

@@ -491,3 +491,24 @@ def test_a_dense_pattern_is_refined_only_after_perturbed_pivots(monkeypatch, per
     rx, ry = np.linalg.norm(K @ x - b), np.linalg.norm(K @ y - b)
     roundoff = 100 * np.finfo(float).eps * abs(K).sum(axis=0).max() * np.linalg.norm(y)
     assert rx <= 10 * max(ry, roundoff)
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="PARDISO (MKL) not installed")
+def test_a_single_precision_cholesky_is_refined_to_its_tolerance_in_double():
+    """With ``mixed_precision`` a definite dense solve factorises in single precision (cond(K) =
+    2e3 here, so the substitution alone leaves a relative residual far above double round-off:
+    its bound is cond x eps32 ~ 1e-4) and refines in double to ``refinement_tolerance``; an
+    approximate resolve stays at single precision's accuracy, an exact one is refined too."""
+    rng = np.random.default_rng(3)
+    n = 40
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    K = sp.csr_matrix((Q * np.geomspace(1e-3, 2.0, n)) @ Q.T)
+    b = rng.standard_normal(n)
+    solver = LinearSolver("pardiso")
+    x = solver.solve(K, b, definite=True)
+    assert solver._pardiso.single and solver.refinements >= 1
+    assert np.linalg.norm(K @ x - b) <= solver.refinement_tolerance * np.linalg.norm(b)
+    rough = solver.resolve(b, approximate=True)
+    assert np.linalg.norm(K @ rough - b) > solver.refinement_tolerance * np.linalg.norm(b)
+    exact = solver.resolve(b)
+    assert np.linalg.norm(K @ exact - b) <= solver.refinement_tolerance * np.linalg.norm(b)

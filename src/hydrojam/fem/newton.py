@@ -330,7 +330,7 @@ def _conjugate_gradients(K, g, r, solver, options: NewtonOptions):
     ``krylov_iterations`` pass. Every iterate from dx = 0 descends (g.dx < 0)."""
     x = np.zeros_like(g)
     res = -g
-    z = solver.resolve(res)
+    z = solver.resolve(res, approximate=True)
     p, rz = z, float(res @ z)
     for _ in range(options.krylov_iterations):
         Kp = K @ p
@@ -342,7 +342,7 @@ def _conjugate_gradients(K, g, r, solver, options: NewtonOptions):
         res = res - a * Kp
         if np.linalg.norm(res) <= options.linear_residual * r:
             return x
-        z = solver.resolve(res)
+        z = solver.resolve(res, approximate=True)
         rz, rz_old = float(res @ z), rz
         p = z + (rz / rz_old) * p
     return None
