@@ -200,19 +200,19 @@ class _Pardiso:
         x = np.zeros_like(b)
         err = ctypes.c_int32(0)
         i32 = ctypes.POINTER(ctypes.c_int32)
-        f64 = ctypes.POINTER(ctypes.c_float if self.single else ctypes.c_double)  # the name: PARDISO's "a", "b", "x"
+        real = ctypes.POINTER(ctypes.c_float if self.single else ctypes.c_double)
         ps._mkl_pardiso(
             ps.pt.ctypes.data_as(ctypes.POINTER(ps._pt_type[0])),
             ctypes.byref(ctypes.c_int32(1)), ctypes.byref(ctypes.c_int32(1)),  # maxfct, mnum
             ctypes.byref(ctypes.c_int32(ps.mtype)),
             ctypes.byref(ctypes.c_int32(phase)),
             ctypes.byref(ctypes.c_int32(n)),
-            data.ctypes.data_as(f64), ia.ctypes.data_as(i32), ja.ctypes.data_as(i32),
+            data.ctypes.data_as(real), ia.ctypes.data_as(i32), ja.ctypes.data_as(i32),
             ps.perm.ctypes.data_as(i32),
             ctypes.byref(ctypes.c_int32(1)),  # nrhs
             ps.iparm.ctypes.data_as(i32),
             ctypes.byref(ctypes.c_int32(ps.msglvl)),
-            b.ctypes.data_as(f64), x.ctypes.data_as(f64),
+            b.ctypes.data_as(real), x.ctypes.data_as(real),
             ctypes.byref(err),
         )
         if err.value != 0:
@@ -326,6 +326,7 @@ class LinearSolver:
     double (four decades below Newton's ``linear_residual``), at most :attr:`refinement_steps`
     substitutions; a refinement that stops gaining at least half the residual a step stops."""
     refinement_steps: int = 6
+    """The most refinement steps (substitutions) a single-precision solution takes."""
 
     def __init__(self, method: str = "auto"):
         if method not in ("auto", "pardiso", "scipy"):
@@ -422,11 +423,13 @@ class LinearSolver:
                 break
             self.refinements += 1
             xn = x + self._pardiso.resolve(r)
-            rn_new = float(np.linalg.norm(rn_vec := b - K @ xn))
-            if not rn_new < rn:
+            r_new = b - K @ xn
+            rn_new = float(np.linalg.norm(r_new))
+            if not rn_new < rn:  # no gain: keep the best x
                 break
-            x, r, improved, rn = xn, rn_vec, rn_new <= 0.5 * rn, rn_new
-            if not improved:
+            halved = rn_new <= 0.5 * rn
+            x, r, rn = xn, r_new, rn_new
+            if not halved:
                 break
         return x
 
