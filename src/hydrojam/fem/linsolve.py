@@ -76,7 +76,7 @@ class _Pardiso:
     patterns after every solve. False: only after a factorisation that perturbed pivots
     (iparm(14) > 0), when the solve is redone with it: without perturbed pivots the factor is
     exact to round-off, and the two steps changed no residual measurably for a seventh of a 3D
-    solve (docs/solver.md, "A changing contact pattern in 3D"). 2D patterns keep the forced
+    solve (docs/solver.md, "A changing contact pattern"). 2D patterns keep the forced
     refinement, and their bits."""
 
     _mkl_rt: str | None = None
@@ -301,10 +301,8 @@ class LinearSolver:
     contact couplings hardly change what a good one is (docs/solver.md, "Linear solver"). 2D
     patterns (minimum degree, a cheap ordering) keep computing theirs, and their bits."""
     use_reach: bool = True
-    """Whether :meth:`solve` heeds its ``reach`` hint for dense patterns (3D: more than
-    ``_Pardiso.dense_row`` upper entries a row; False: the union of the patterns seen lately,
-    as without a hint). 2D patterns keep the union of the patterns seen lately, and their bits
-    (docs/solver.md, "A changing contact pattern")."""
+    """Whether :meth:`solve` heeds its ``reach`` hint (False: the union of the patterns seen
+    lately, as without a hint; docs/solver.md, "A changing contact pattern")."""
     use_cholesky: bool = True
     """Whether a solve that asks for a positive definite matrix (``definite``) on a dense pattern
     (3D) runs PARDISO's Cholesky (mtype 2) instead of its LDL^T (-2): a faster factorisation
@@ -485,8 +483,7 @@ class LinearSolver:
             k = _kernels()
             pos, hint = None, None
             n = K.shape[0]
-            dense = _Pardiso.is_dense((len(K.indices) + n) // 2, n)  # K's upper entries, a full diagonal
-            reach = reach if self.reuse_analysis and self.use_reach and dense else None
+            reach = reach if self.reuse_analysis and self.use_reach else None
             if self.reuse_analysis and u is not None and u.n == K.shape[0]:
                 pos, missing = k.upper_positions(K.indptr, K.indices, u.indptr, u.indices)
                 if missing and reach is not None:
