@@ -31,10 +31,11 @@ Table 3 replays it with each new pattern ordered afresh and with the last orderi
 pattern within reach (``Contact.hessian_pattern``, recorded with every system and handed to
 the solve as it was in the simulation; ``LinearSolver.use_reach``), then with PARDISO's Cholesky
 where the simulation asked for a definite K, in double and in single precision refined in double
-(``LinearSolver.mixed_precision``; "refinement steps" counts the refining substitutions), interleaved (every variant
-solves system i before any solves i + 1) and the faster of two passes kept: analyses, orderings
-computed, factorisations, the mean factor size and ms per solve. The ordering and the reach are
-used for dense (3D) patterns only, so on a 2D design the rows solve alike.
+(``LinearSolver.mixed_precision``; "refinement steps" counts the refining substitutions),
+interleaved (every variant solves system i before any solves i + 1) and the faster of two passes
+kept: analyses, orderings computed, factorisations, the mean factor size and ms per solve. The
+kept ordering and the Cholesky are used for dense (3D) patterns only, so on a 2D design the
+rows with the reach solve alike, as do those without it.
 
 Reading the numbers: the header prints the load average; other processes on the machine inflate
 the times (compare rows of one run, not runs). The solves, analyses, orderings and
