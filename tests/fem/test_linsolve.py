@@ -467,16 +467,18 @@ def test_a_sparse_2d_pattern_heeds_the_reach_too():
 
 
 @pytest.mark.skipif(not _pardiso_available(), reason="PARDISO not available")
+@pytest.mark.parametrize("dense", [False, True])
 @pytest.mark.parametrize("perturbed", [0, 3])
-def test_a_dense_pattern_is_refined_only_after_perturbed_pivots(monkeypatch, perturbed):
-    """On dense patterns the solve skips PARDISO's forced refinement unless the factorisation
-    perturbed pivots (iparm(14), set here by the spy as a factorisation would); then the solve
-    is redone with the refinement (phase 33, iparm(8) as pardisoinit set it). Either way the
-    residual is within 10x of the forced refinement's, or of a backward-stable solve's
-    round-off, 100 eps ||K||_1 ||x||, whichever is larger."""
+def test_a_solve_is_refined_only_after_perturbed_pivots(monkeypatch, perturbed, dense):
+    """On sparse (2D) and dense (3D) patterns the solve skips PARDISO's forced refinement unless
+    the factorisation perturbed pivots (iparm(14), set here by the spy as a factorisation would);
+    then the solve is redone with the refinement (phase 33, iparm(8) as pardisoinit set it).
+    Either way the residual is within 10x of the forced refinement's, or of a backward-stable
+    solve's round-off, 100 eps ||K||_1 ||x||, whichever is larger."""
     from hydrojam.fem.linsolve import _Pardiso
 
-    monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
+    if dense:
+        monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
     phases = []
     call = _Pardiso._call
 
@@ -491,7 +493,7 @@ def test_a_dense_pattern_is_refined_only_after_perturbed_pivots(monkeypatch, per
     K, b = _contact_sequence(seed=10, steps=1)[0]
     x = LinearSolver("pardiso").solve(K, b)
     assert phases == ([(13, 0)] if not perturbed else [(13, 0), (33, 2)])
-    monkeypatch.setattr(_Pardiso, "dense_refinement", True)
+    monkeypatch.setattr(_Pardiso, "forced_refinement", True)
     phases.clear()
     y = LinearSolver("pardiso").solve(K, b)
     assert phases == [(13, 2)]

@@ -71,13 +71,12 @@ class _Pardiso:
         """Whether a pattern of ``upper_entries`` upper-triangle entries on n rows is dense (3D)."""
         return upper_entries > cls.dense_row * n
 
-    dense_refinement: bool = False
-    """Whether PARDISO's forced refinement (iparm(8), two steps from pardisoinit) runs on dense
-    patterns after every solve. False: only after a factorisation that perturbed pivots
-    (iparm(14) > 0), when the solve is redone with it: without perturbed pivots the factor is
-    exact to round-off, and the two steps changed no residual measurably for a seventh of a 3D
-    solve (docs/solver.md, "A changing contact pattern"). 2D patterns keep the forced
-    refinement, and their bits."""
+    forced_refinement: bool = False
+    """Whether PARDISO's forced refinement (iparm(8), two steps from pardisoinit) runs after every
+    solve. False: only after a factorisation that perturbed pivots (iparm(14) > 0), when the solve
+    is redone with it: without perturbed pivots the factor is exact to round-off, and the two
+    steps changed no residual measurably for a seventh of a 3D solve and about a tenth of a 2D
+    one (docs/solver.md, "A changing contact pattern")."""
 
     _mkl_rt: str | None = None
     """Path of the MKL runtime found by the first handle: later handles skip pypardiso's search
@@ -161,7 +160,7 @@ class _Pardiso:
                 ps.iparm[4] = 0
             ps.perm = self.ordering if self.ordering is not None else np.zeros(0, dtype=np.int32)
             ps.iparm[17] = -1  # iparm(18) < 0: report the factor's entries (overwritten by each report)
-        refine_later = self._dense and not self.dense_refinement
+        refine_later = not self.forced_refinement
         ps.iparm[7] = 0 if refine_later else self._refinement
         self._factorised = None
         phase = 23 if reuse_analysis else 13
