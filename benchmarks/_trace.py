@@ -104,9 +104,9 @@ class IterationTrace:
                     row["negative"] = 1 if failed else ("" if solver.negative_eigenvalues is None
                                                         else solver.negative_eigenvalues)
 
-        def traced_resolve(solver, b):
+        def traced_resolve(solver, b, **kw):
             row["substitutions"] = row.get("substitutions", 0) + 1
-            return resolve(solver, b)
+            return resolve(solver, b, **kw)
 
         newton._direction, newton._line_search, newton._marquardt_update = (traced_direction, traced_line_search,
                                                                             traced_update)
