@@ -227,8 +227,8 @@ def test_conjugate_gradients_solve_the_full_system_preconditioned_by_a_nearby_on
     solver.solve(M, -g)
     options = NewtonOptions()
     r = float(np.linalg.norm(g))
-    x = _conjugate_gradients(K, g, r, solver, options)
-    assert x is not None
+    x, curved = _conjugate_gradients(K, g, r, solver, options.krylov_iterations, options)
+    assert x is not None and not curved
     assert np.linalg.norm(K @ x + g) <= options.linear_residual * r
     exact = np.linalg.solve(K.toarray(), -g)
     assert np.linalg.norm(x - exact) <= options.linear_residual * r / 1.0
@@ -239,7 +239,8 @@ def test_conjugate_gradients_refuse_a_system_with_negative_curvature():
     """K = M - c w w^T with c w^T M^-1 w > 1 has one negative eigenvalue, and the preconditioned
     Krylov space holds it after two iterations: K's restriction to the conjugate directions is
     diagonal, so by Sylvester's law one of their curvatures p.K.p is negative, and the conjugate
-    gradients return None instead of the saddle's Newton step."""
+    gradients return no step, and say that they met the curvature, instead of the saddle's
+    Newton step."""
     from hydrojam.fem.linsolve import LinearSolver
     from hydrojam.fem.newton import NewtonOptions, _conjugate_gradients
 
@@ -252,7 +253,74 @@ def test_conjugate_gradients_refuse_a_system_with_negative_curvature():
     assert np.linalg.eigvalsh(K.toarray()).min() < 0
     solver = LinearSolver("scipy")
     solver.solve(M, -g)
-    assert _conjugate_gradients(K, g, float(np.linalg.norm(g)), solver, NewtonOptions()) is None
+    options = NewtonOptions()
+    assert _conjugate_gradients(K, g, float(np.linalg.norm(g)), solver, options.detect_iterations,
+                                options) == (None, True)
+
+
+class _SymmetricQuadratic(EnergyTerm):
+    """E = x.A x / 2 [mJ] over the flat x for a fixed symmetric A; with ``fallback_projection`` its
+    projected Hessian is ``projected``."""
+
+    name = "quadratic"
+
+    def __init__(self, A, projected=None):
+        self.A, self.projected = sp.csr_matrix(A), projected
+        self.fallback_projection = projected is not None
+
+    def energy(self, x):
+        return 0.5 * float(x.ravel() @ (self.A @ x.ravel()))
+
+    def gradient(self, x):
+        return (self.A @ x.ravel()).reshape(x.shape)
+
+    def hessian(self, x, project=False):
+        return sp.csr_matrix(self.projected) if project and self.projected is not None else self.A
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="the inertia comes from PARDISO")
+@pytest.mark.parametrize("full_first", [False, True])
+@pytest.mark.parametrize("c", [0.5, 4.0])
+def test_krylov_detect_takes_the_full_step_where_its_conjugate_gradients_meet_no_negative_curvature(c, full_first):
+    """An SPD A beside a term -c W W^T (W: three orthonormal columns) whose projection is 0: the
+    projected K = A preconditions conjugate gradients on the full K = A - c W W^T, whose
+    preconditioned operator has four distinct eigenvalues, so a single iteration converges on
+    neither. With lambda_min(A) = 1, c = 0.5 leaves K definite: "krylov_detect" factorises it after
+    one step that met no negative curvature and takes its exact solution (within linear_residual
+    of ||g|| over lambda_min(K) >= 0.5). c = 4 makes K indefinite: the step is the projected K's.
+    ``full_first`` (the last iteration took the full step) gives the same directions, the definite
+    one by one factorisation and no conjugate gradient."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.newton import NewtonOptions, _direction, _free_block, _sum_hessians
+
+    n = 60
+    rng = np.random.default_rng(8)
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    A = (Q * np.linspace(1.0, 10.0, n)) @ Q.T
+    W, _ = np.linalg.qr(rng.standard_normal((n, 3)))
+    B = -c * (W * [1.0, 0.7, 0.4]) @ W.T
+    terms = [_SymmetricQuadratic(A), _SymmetricQuadratic(B, projected=np.zeros((n, n)))]
+    xs = rng.standard_normal((n, 1))
+    fidx = np.arange(n)
+    hessians = [t.hessian(xs) for t in terms]
+    Hff = _free_block(_sum_hessians(hessians), fidx)
+    g = sum(t.gradient(xs) for t in terms).ravel()
+    r = float(np.linalg.norm(g))
+    options = NewtonOptions(definite=True, fallback_start="krylov_detect", detect_iterations=1, regularisation=0.0)
+    solver = LinearSolver("pardiso")
+    resolves = []
+    resolve = solver.resolve
+    solver.resolve = lambda b, **kw: resolves.append(1) or resolve(b, **kw)
+    dx, slope, tau, projected = _direction(terms, xs, hessians, Hff, abs(Hff.diagonal()), g, r, 0.0, fidx,
+                                           solver, options, full_first=full_first)
+    full_definite = np.linalg.eigvalsh(A + B).min() > 0
+    if full_first and full_definite:
+        assert (solver.calls, len(resolves)) == (1, 0)
+    assert full_definite == (c < 1)
+    expected = np.linalg.solve(A + B if full_definite else A, -g)
+    assert projected is not full_definite
+    assert np.linalg.norm(dx - expected) <= options.linear_residual * r / 0.5
+    assert slope < 0
 
 
 class _ProjectableSaddleValley(_SaddleValley):

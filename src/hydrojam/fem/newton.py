@@ -123,8 +123,12 @@ class NewtonOptions:
     3D (positions of shape (n, 3), whose factorisations dominate an iteration), "full" otherwise.
     Each failed attempt costs a factorisation."""
     krylov_iterations: int = 20
-    """Conjugate-gradient iterations at most on the full K (``fallback_start`` "krylov" or
-    "krylov_detect")."""
+    """Conjugate-gradient iterations at most on the full K (``fallback_start`` "krylov")."""
+    detect_iterations: int = 5
+    """Conjugate-gradient iterations at most that look for the full K's negative curvature
+    (``fallback_start`` "krylov_detect"): where they meet none, the full K is factorised, and its
+    Cholesky factorisation decides whether it is definite. Negative curvature shows within a few
+    iterations or not at all, while converging on a definite K takes several more."""
 
 
 class NewtonStatus(enum.Enum):
@@ -249,12 +253,16 @@ def _reach(terms, xs, fidx):
 
 
 def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options: NewtonOptions,
-               projected: bool = False):
+               projected: bool = False, full_first: bool = False):
     """The damped Newton direction: solve K dx = -g over the free DOFs with
     K = H + tau diag|H| + eps mean|diag H| I. ``hessians``: every term's Hessian at xs, as summed
     into H (the fallback re-assembles only the terms that ask for projection; ``projected``: they
     already are). Returns (dx or None if every attempt failed, slope g.dx, tau used, whether the
-    fallback terms were projected in the accepted K).
+    fallback terms were projected in the accepted K). ``full_first`` ("krylov_detect" only; the
+    last iteration took the full K's step): the full K at ``lm`` is factorised first, and its
+    solution taken where it is definite; otherwise the projected K's step follows without the
+    conjugate gradients, which would only find again that the full K is not definite. Either way
+    the direction is the one "krylov_detect" takes without it.
 
     Damping changes the step, never the equilibrium.
     - eps (``regularisation``), always: a floating body's rigid modes are an exact null space,
@@ -270,6 +278,16 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
               and not projected)
     reach = _reach(terms, xs, fidx)
     eps = options.regularisation * hdiag.mean()
+    detect, full_indefinite = options.fallback_start == "krylov_detect", False
+    if krylov and detect and full_first:
+        # the projected K is the full one plus a positive semi-definite part: where the full K at
+        # lm is definite, the projected one is too and the conjugate gradients meet no negative
+        # curvature, so "krylov_detect" would take this solution
+        K = Hff + sp.diags(lm * hdiag + eps, format="csr")
+        cand, refused = _accurate_solution(K, g, r, reach, solver, options)
+        if cand is not None and not solver.negative_eigenvalues and g @ cand < 0:
+            return cand, float(g @ cand), lm, False
+        full_indefinite = refused or (cand is not None and bool(solver.negative_eigenvalues))
     tau, dx, slope, Hfull = lm, None, 0.0, Hff
     for attempt in range(options.damping_attempts):
         if (attempt == 1 or krylov) and adaptive and fallback and not projected:
@@ -288,15 +306,17 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
                 dx = cand
                 break
         tau = max(options.damping_growth * tau, options.definite_floor if indefinite else options.damping_floor)
-    detect = options.fallback_start == "krylov_detect"
-    if krylov and dx is not None and solver.negative_eigenvalues is not None and (tau == lm or not detect):
+    if (krylov and not full_indefinite and dx is not None and solver.negative_eigenvalues is not None
+            and (tau == lm or not detect)):
         # "krylov_detect" follows "full": its full K is tried at the Marquardt damping only (the
         # full K is the projected one less the contacts' negative curvature, so where the
         # projected K needed more damping, the full one at lm is indefinite too)
         K = Hfull + sp.diags(tau * hdiag + eps, format="csr")
-        full = _conjugate_gradients(K, g, r, solver, options)
-        if full is not None and detect:
-            full = _definite_solution(K, g, r, reach, solver, options)
+        if detect:
+            _, curved = _conjugate_gradients(K, g, r, solver, options.detect_iterations, options)
+            full = None if curved else _definite_solution(K, g, r, reach, solver, options)
+        else:
+            full, _ = _conjugate_gradients(K, g, r, solver, options.krylov_iterations, options)
         if full is not None:
             dx, slope, projected = full, float(g @ full), False
     return dx, slope, tau, projected
@@ -323,29 +343,30 @@ def _definite_solution(K, g, r, reach, solver, options: NewtonOptions):
     return None if dx is None or solver.negative_eigenvalues or g @ dx >= 0 else dx
 
 
-def _conjugate_gradients(K, g, r, solver, options: NewtonOptions):
-    """Solution of K dx = -g by conjugate gradients preconditioned with the solver's last
-    factorisation (a positive definite K nearby): dx once ||K dx + g|| <= linear_residual x r,
-    None where a search direction has curvature p.K.p <= 0 (K is not positive definite there) or
-    ``krylov_iterations`` pass. Every iterate from dx = 0 descends (g.dx < 0)."""
+def _conjugate_gradients(K, g, r, solver, steps: int, options: NewtonOptions):
+    """K dx = -g by at most ``steps`` conjugate-gradient iterations preconditioned with the
+    solver's last factorisation (a positive definite K nearby): (dx, curved). dx once
+    ||K dx + g|| <= linear_residual x r, else None; curved where a search direction has curvature
+    p.K.p <= 0 (K is not positive definite there; dx is None then). Every iterate from dx = 0
+    descends (g.dx < 0)."""
     x = np.zeros_like(g)
     res = -g
     z = solver.resolve(res, approximate=True)
     p, rz = z, float(res @ z)
-    for _ in range(options.krylov_iterations):
+    for _ in range(steps):
         Kp = K @ p
         curvature = float(p @ Kp)
         if curvature <= 0:
-            return None
+            return None, True
         a = rz / curvature
         x = x + a * p
         res = res - a * Kp
         if np.linalg.norm(res) <= options.linear_residual * r:
-            return x
+            return x, False
         z = solver.resolve(res, approximate=True)
         rz, rz_old = float(res @ z), rz
         p = z + (rz / rz_old) * p
-    return None
+    return None, False
 
 
 def _line_search(terms, x, E, step, slope, shape, alpha, options: NewtonOptions):
@@ -537,6 +558,7 @@ def minimize(
         if it == options.max_iter:
             break
         t0 = time.perf_counter()
+        full_first = it > 0 and not projected  # the last iteration took the full K's step
         projected = projected and options.fallback_start in ("projected", "remembered")
         hessians = [t.hessian(xs, options.projection == "always" or (projected and t.fallback_projection))
                     for t in terms]
@@ -545,7 +567,7 @@ def minimize(
         t0 = time.perf_counter()
         hdiag = abs(Hff.diagonal())
         dx, slope, tau, projected = _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options,
-                                               projected)
+                                               projected, full_first)
         tm.linear_solve += time.perf_counter() - t0
         if dx is None:
             return result(NewtonStatus.SINGULAR, it, r)
