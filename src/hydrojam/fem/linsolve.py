@@ -318,9 +318,9 @@ class LinearSolver:
     double against the double matrix (:attr:`refinement_tolerance`): about half the time of a
     3D factorisation. The LDL^T (the inertia of the stability check, ``lowest_mode``, 2D) stays
     in double (docs/solver.md, "Mixed precision")."""
-    refinement_tolerance: float = 1e-10
+    refinement_tolerance: float = 1e-8
     """Relative residual ||K u - b|| / ||b|| to which a single-precision solution is refined in
-    double (four decades below Newton's ``linear_residual``), at most :attr:`refinement_steps`
+    double (two decades below Newton's ``linear_residual``, which a direction must meet), at most :attr:`refinement_steps`
     substitutions; a refinement that stops gaining at least half the residual a step stops."""
     refinement_steps: int = 6
     """The most refinement steps (substitutions) a single-precision solution takes."""
