@@ -37,7 +37,7 @@ STABILISATION = 0.01
 #: A step is first tried undamped, in up to 3 blocks of 200 iterations, before the damping
 #: comes in, from where the blocks stopped (docs/solver.md, "Undamped first").
 ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=30,
-                            newton=NewtonOptions(max_iter=200, definite=True, fallback_start="auto"),
+                            newton=NewtonOptions(max_iter=200, definite=True, fallback_start="krylov_detect"),
                             damping_start=0.0,
                             damping_relax_after=1, undamped_blocks=3, damped_from_blocks=True)
 

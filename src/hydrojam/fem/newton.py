@@ -20,7 +20,6 @@ tighter tolerance chases for hundreds of iterations without changing any result.
 
 from __future__ import annotations
 
-import dataclasses
 import enum
 import time
 import warnings
@@ -118,16 +117,16 @@ class NewtonOptions:
     ``definite``: the projected K is factorised first, then preconditions conjugate gradients on the
     full K, whose solution is the direction unless they meet negative curvature) or
     "krylov_detect" (the same conjugate gradients only detect the full K's negative curvature:
-    where they meet none, the full K is factorised and its solution taken if its inertia shows it
-    definite; the directions of "full" with fewer factorisations), or "auto": "krylov_detect" in
-    3D (positions of shape (n, 3), whose factorisations dominate an iteration), "full" otherwise.
-    Each failed attempt costs a factorisation."""
+    where they meet none, the full K is factorised and its solution taken if its factorisation
+    shows it definite; after an iteration that took the full K's step, the full K is factorised
+    first: the directions of "full" with fewer factorisations; the actuator's path). Each failed
+    attempt costs a factorisation."""
     krylov_iterations: int = 20
     """Conjugate-gradient iterations at most on the full K (``fallback_start`` "krylov")."""
     detect_iterations: int = 5
     """Conjugate-gradient iterations at most that look for the full K's negative curvature
     (``fallback_start`` "krylov_detect"): where they meet none, the full K is factorised, and its
-    Cholesky factorisation decides whether it is definite. Negative curvature shows within a few
+    factorisation (a Cholesky's refusal, an LDL^T's inertia) decides whether it is definite. Negative curvature shows within a few
     iterations or not at all, while converging on a definite K takes several more."""
 
 
@@ -536,11 +535,9 @@ def minimize(
     E = sum_energy(terms, x.reshape(shape))
     if not np.isfinite(E):
         return result(NewtonStatus.INADMISSIBLE_START, 0, np.inf)
-    if options.fallback_start not in ("full", "projected", "remembered", "krylov", "krylov_detect", "auto"):
-        raise ValueError(f"fallback_start must be full, projected, remembered, krylov, krylov_detect or auto, "
+    if options.fallback_start not in ("full", "projected", "remembered", "krylov", "krylov_detect"):
+        raise ValueError(f"fallback_start must be full, projected, remembered, krylov or krylov_detect, "
                          f"not {options.fallback_start!r}")
-    if options.fallback_start == "auto":
-        options = dataclasses.replace(options, fallback_start="krylov_detect" if shape[-1] == 3 else "full")
     lm, projected = 0.0, options.fallback_start == "projected"
     for it in range(options.max_iter + 1):
         t0 = time.perf_counter()
