@@ -77,12 +77,10 @@ VARIANTS = {
     # the contact Hessian projected from each iteration's first attempt / once a minimisation needed it
     "projected_start": {"options": {"newton": {"fallback_start": "projected"}}},
     "remembered_start": {"options": {"newton": {"fallback_start": "remembered"}}},
-    # the full Hessian's K factorised first in 3D too (main's rule in 2D)
+    # the full Hessian's K factorised first in every iteration
     "full_start": {"options": {"newton": {"fallback_start": "full"}}},
     # the projected K factorised, then preconditioning conjugate gradients on the full K
     "krylov": {"options": {"newton": {"fallback_start": "krylov"}}},
-    # the conjugate gradients only detect negative curvature; the full K factorised where they meet none
-    "krylov_detect": {"options": {"newton": {"fallback_start": "krylov_detect"}}},
     # the Marquardt damping decays after any step of length 0.5 or more, not only after full steps
     "lm_long_0.5": {"options": {"newton": {"marquardt_long_step": 0.5}}},
     "lm_long_0.25": {"options": {"newton": {"marquardt_long_step": 0.25}}},
