@@ -19,7 +19,7 @@ test of whether a faster path samples the same distribution of equilibria as the
 ``--set`` overrides design fields for every run. ``--steps`` prints the iterations of every load
 step as it is accepted and, at the end, with its damping scale and failed attempts, and of every
 release round. ``default_3d`` is
-the default design in 3D at the quick mesh (half model, 4 mm): about 7 CPU minutes a run.
+the default design in 3D at the quick mesh (half model, 4 mm): about 6 CPU minutes a run.
 
 Iteration counts are deterministic; wall times are disturbed by whatever else runs (the load is
 printed).
