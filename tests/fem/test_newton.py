@@ -279,9 +279,11 @@ class _SymmetricQuadratic(EnergyTerm):
 
 
 @pytest.mark.skipif(not _pardiso_available(), reason="the inertia comes from PARDISO")
+@pytest.mark.parametrize("cholesky", [False, True])
 @pytest.mark.parametrize("full_first", [False, True])
 @pytest.mark.parametrize("c", [0.5, 4.0])
-def test_krylov_detect_takes_the_full_step_where_its_conjugate_gradients_meet_no_negative_curvature(c, full_first):
+def test_krylov_detect_takes_the_full_step_where_its_conjugate_gradients_meet_no_negative_curvature(
+        c, full_first, cholesky, monkeypatch):
     """An SPD A beside a term -c W W^T (W: three orthonormal columns) whose projection is 0: the
     projected K = A preconditions conjugate gradients on the full K = A - c W W^T, whose
     preconditioned operator has four distinct eigenvalues, so a single iteration converges on
@@ -289,9 +291,13 @@ def test_krylov_detect_takes_the_full_step_where_its_conjugate_gradients_meet_no
     one step that met no negative curvature and takes its exact solution (within linear_residual
     of ||g|| over lambda_min(K) >= 0.5). c = 4 makes K indefinite: the step is the projected K's.
     ``full_first`` (the last iteration took the full step) gives the same directions, the definite
-    one by one factorisation and no conjugate gradient."""
-    from hydrojam.fem.linsolve import LinearSolver
+    one by one factorisation and no conjugate gradient. With ``cholesky`` the definite solves are
+    single-precision Cholesky factorisations (a dense pattern: 3D), which refuse an indefinite K;
+    without, LDL^T factorisations in double (2D), whose inertia shows it."""
+    from hydrojam.fem.linsolve import LinearSolver, _Pardiso
     from hydrojam.fem.newton import NewtonOptions, _direction, _free_block, _sum_hessians
+
+    monkeypatch.setattr(_Pardiso, "dense_row", 0.5 if cholesky else 1e9)
 
     n = 60
     rng = np.random.default_rng(8)
