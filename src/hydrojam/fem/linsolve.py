@@ -320,8 +320,9 @@ class LinearSolver:
     in double (docs/solver.md, "Mixed precision")."""
     refinement_tolerance: float = 1e-8
     """Relative residual ||K u - b|| / ||b|| to which a single-precision solution is refined in
-    double (two decades below Newton's ``linear_residual``, which a direction must meet), at most :attr:`refinement_steps`
-    substitutions; a refinement that stops gaining at least half the residual a step stops."""
+    double (two decades below Newton's ``linear_residual``, which a direction must meet), at
+    most :attr:`refinement_steps` substitutions; a refinement that stops gaining at least half
+    the residual a step stops."""
     refinement_steps: int = 6
     """The most refinement steps (substitutions) a single-precision solution takes."""
 

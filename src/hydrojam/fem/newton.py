@@ -126,8 +126,9 @@ class NewtonOptions:
     detect_iterations: int = 5
     """Conjugate-gradient iterations at most that look for the full K's negative curvature
     (``fallback_start`` "krylov_detect"): where they meet none, the full K is factorised, and its
-    factorisation (a Cholesky's refusal, an LDL^T's inertia) decides whether it is definite. Negative curvature shows within a few
-    iterations or not at all, while converging on a definite K takes several more."""
+    factorisation (a Cholesky's refusal, an LDL^T's inertia) decides whether it is definite.
+    Negative curvature shows within a few iterations or not at all, while converging on a
+    definite K takes several more."""
 
 
 class NewtonStatus(enum.Enum):
