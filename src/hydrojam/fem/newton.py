@@ -284,10 +284,9 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
         # lm is definite, the projected one is too and the conjugate gradients meet no negative
         # curvature, so "krylov_detect" would take this solution
         K = Hff + sp.diags(lm * hdiag + eps, format="csr")
-        cand, refused = _accurate_solution(K, g, r, reach, solver, options)
-        if cand is not None and not solver.negative_eigenvalues and g @ cand < 0:
+        cand, full_indefinite = _definite_solution(K, g, r, reach, solver, options)
+        if cand is not None:
             return cand, float(g @ cand), lm, False
-        full_indefinite = refused or (cand is not None and bool(solver.negative_eigenvalues))
     tau, dx, slope, Hfull = lm, None, 0.0, Hff
     for attempt in range(options.damping_attempts):
         if (attempt == 1 or krylov) and adaptive and fallback and not projected:
@@ -314,7 +313,7 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
         K = Hfull + sp.diags(tau * hdiag + eps, format="csr")
         if detect:
             _, curved = _conjugate_gradients(K, g, r, solver, options.detect_iterations, options)
-            full = None if curved else _definite_solution(K, g, r, reach, solver, options)
+            full = None if curved else _definite_solution(K, g, r, reach, solver, options)[0]
         else:
             full, _ = _conjugate_gradients(K, g, r, solver, options.krylov_iterations, options)
         if full is not None:
@@ -337,10 +336,15 @@ def _accurate_solution(K, g, r, reach, solver, options: NewtonOptions):
 
 
 def _definite_solution(K, g, r, reach, solver, options: NewtonOptions):
-    """:func:`_accurate_solution` where K is positive definite by its inertia and dx descends;
-    None otherwise."""
-    dx, _ = _accurate_solution(K, g, r, reach, solver, options)
-    return None if dx is None or solver.negative_eigenvalues or g @ dx >= 0 else dx
+    """(dx, indefinite): :func:`_accurate_solution`'s dx where K is positive definite by its
+    inertia and dx descends, None otherwise; indefinite where the factorisation showed K is not
+    positive definite (a Cholesky's refusal, an LDL^T's negative eigenvalue)."""
+    dx, refused = _accurate_solution(K, g, r, reach, solver, options)
+    if dx is None:
+        return None, refused
+    if solver.negative_eigenvalues:
+        return None, True
+    return (dx if g @ dx < 0 else None), False
 
 
 def _conjugate_gradients(K, g, r, solver, steps: int, options: NewtonOptions):
