@@ -4,7 +4,8 @@ Marquardt update) and the linear solver, and records for every iteration
 
 - ``step``: the accepted load steps before it (the iteration belongs to the next one; a
   step's release rounds and its rejected attempts are counted in it too),
-- ``residual`` [N] at the iterate, ``tau`` (the Marquardt damping used, relative to diag|H|),
+- ``residual`` [N] at the iterate, ``tolerance`` [N] (that of the minimisation it is in),
+  ``tau`` (the Marquardt damping used, relative to diag|H|),
 - ``cap``: the step cap of the terms (contact CCD; 1 = none), ``alpha``: the accepted step length,
 - ``trials``: energy evaluations of the line search, ``dE`` [mJ]: the energy change,
 - ``step_max`` [mm]: the largest nodal move, ``stabilisation``: the damped term's scale (0 without),
@@ -27,7 +28,7 @@ import numpy as np
 import hydrojam.fem.newton as newton
 from hydrojam.fem.linsolve import LinearSolver, NotPositiveDefinite
 
-FIELDS = ("step", "residual", "tau", "cap", "alpha", "trials", "dE", "step_max", "stabilisation", "pairs",
+FIELDS = ("step", "residual", "tolerance", "tau", "cap", "alpha", "trials", "dE", "step_max", "stabilisation", "pairs",
           "analysis", "solves", "negative", "substitutions", "projected")
 
 
@@ -46,15 +47,21 @@ class IterationTrace:
 
     def install(self) -> None:
         """Wrap newton's helpers and the linear solver (undone by :meth:`uninstall`)."""
-        direction, line_search, update, solve, resolve = (newton._direction, newton._line_search,
-                                                          newton._marquardt_update, LinearSolver.solve,
-                                                          LinearSolver.resolve)
-        self._saved = direction, line_search, update, solve, resolve
+        direction, line_search, update, solve, resolve, tolerance = (
+            newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
+            LinearSolver.resolve, newton._tolerance)
+        self._saved = direction, line_search, update, solve, resolve, tolerance
         row = self._row
+        last_tolerance = [float("nan")]
+
+        def traced_tolerance(*args, **kwargs):
+            last_tolerance[0] = tolerance(*args, **kwargs)
+            return last_tolerance[0]
 
         def traced_direction(terms, xs, hessians, Hff, hdiag, g, r, lm, *args, **kwargs):
             row.clear()
-            row.update(step=self._steps, residual=r, analysis=0, trials=0, solves=0, substitutions=0)
+            row.update(step=self._steps, residual=r, tolerance=last_tolerance[0], analysis=0, trials=0, solves=0,
+                       substitutions=0)
             stab = next((t for t in terms if t.name == "stabilisation"), None)
             row["stabilisation"] = 0.0 if stab is None else float(getattr(stab, "scale", 0.0))
             contact = next((t for t in terms if t.name == "contact"), None)
@@ -65,7 +72,7 @@ class IterationTrace:
             row["tau"], row["projected"] = out[2], int(out[3])
             return out
 
-        def traced_line_search(terms, x, E, step, slope, shape, alpha, options):
+        def traced_line_search(terms, x, E, step, slope, shape, alpha, options, *rest):
             row["cap"] = alpha
             energy, trials = newton.sum_energy, [0]
 
@@ -75,7 +82,7 @@ class IterationTrace:
 
             newton.sum_energy = counted
             try:
-                out = line_search(terms, x, E, step, slope, shape, alpha, options)
+                out = line_search(terms, x, E, step, slope, shape, alpha, options, *rest)
             finally:
                 newton.sum_energy = energy
             row["trials"] = trials[0]
@@ -108,15 +115,15 @@ class IterationTrace:
             row["substitutions"] = row.get("substitutions", 0) + 1
             return resolve(solver, b, **kw)
 
-        newton._direction, newton._line_search, newton._marquardt_update = (traced_direction, traced_line_search,
-                                                                            traced_update)
+        newton._direction, newton._line_search, newton._marquardt_update, newton._tolerance = (
+            traced_direction, traced_line_search, traced_update, traced_tolerance)
         LinearSolver.solve, LinearSolver.resolve = traced_solve, traced_resolve
 
     def uninstall(self) -> None:
         """Put newton's helpers and the linear solver back."""
         if self._saved is not None:
             (newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
-             LinearSolver.resolve) = self._saved
+             LinearSolver.resolve, newton._tolerance) = self._saved
             self._saved = None
 
     def write(self, path: str) -> None:

@@ -127,6 +127,54 @@ def test_the_line_search_backtracks_to_the_first_sufficient_decrease():
     assert alpha == 0.3 and xn[0] == pytest.approx(-0.2, abs=4 * np.finfo(float).eps)
 
 
+class _Cusp(EnergyTerm):
+    """E = C + (2/3) |u|^(3/2) [mJ], u = x - x_star on one DOF: convex, with gradient sign(u)
+    sqrt|u| and Hessian 1 / (2 sqrt|u|), so the Newton step from any u lands on -u, at the same
+    energy and the same residual. C stands for the large, cancelling energy of a swollen gel,
+    whose round-off slack (``energy_slack`` x |E|) then exceeds every energy change near the
+    minimum. Forces in play 1 N: tol = rtol x 1 N."""
+
+    name = "cusp"
+
+    def __init__(self, x_star, C):
+        self.x_star, self.C = x_star, C
+
+    def energy(self, x):
+        return self.C + 2.0 / 3.0 * abs(x[0, 0] - self.x_star) ** 1.5
+
+    def gradient(self, x):
+        u = x[0, 0] - self.x_star
+        return np.array([np.sign(u) * np.sqrt(abs(u))])
+
+    def hessian(self, x, project=False):
+        return sp.csr_matrix([[0.5 / np.sqrt(abs(x[0, 0] - self.x_star))]])
+
+    def force_flux(self, x, gradient=None):
+        return np.ones(1)
+
+
+@pytest.mark.parametrize("C", [1.0, 10.0])
+def test_a_step_the_energy_cannot_judge_must_lower_the_residual(C):
+    """On the cusp from u = 1e-8 (residual 1e-4 N, within stall_factor of the 1e-6 N tolerance)
+    the Newton step lands on -u: the decrease Armijo asks of it (2e-16 mJ) is below the energy's
+    slack (1e-12 C) and its round-off, while the Newton decrement (2e-12 mJ) stays above its
+    round-off exit (1e-14 C). Without ``residual_search`` Newton bounces between u and -u until it
+    runs out of iterations; with it the bounce is refused (the residual does not fall), the half
+    step lands on the minimum, and the minimisation converges within the tolerance in a few
+    iterations (|u| <= tol^2, since the residual is sqrt|u|)."""
+    from hydrojam.fem.newton import NewtonOptions, NewtonStatus, minimize
+
+    x_star = 1.0
+    x0 = np.array([[x_star + 1e-8]])
+    free = np.ones(1, dtype=bool)
+    bounced = minimize([_Cusp(x_star, C)], x0, free, 1.0, NewtonOptions(linear_solver="scipy"))
+    assert bounced.status is NewtonStatus.MAX_ITERATIONS
+    out = minimize([_Cusp(x_star, C)], x0, free, 1.0, NewtonOptions(linear_solver="scipy", residual_search=True))
+    tol = NewtonOptions().rtol * 1.0
+    assert out.status is NewtonStatus.CONVERGED and out.iterations <= 3
+    assert out.residual <= tol and abs(out.x[0, 0] - x_star) <= tol**2
+
+
 def test_the_marquardt_damping_grows_on_short_steps_and_decays_on_full_ones():
     """From 0, a short step (< 0.1) starts the damping at marquardt_min, each further one grows it
     10x up to marquardt_max; a middling step keeps it; a full step divides it by 10, and one at or

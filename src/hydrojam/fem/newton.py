@@ -89,6 +89,13 @@ class NewtonOptions:
     is still taken when it cuts the residual to this x ||g|| or less: there the energy change is
     below the energy's round-off (a freely swelling gel's energy is a sum of cancelling terms),
     and the residual is the reliable measure of progress."""
+    residual_search: bool = False
+    """Where a step's energy change lies within the round-off slack (``energy_slack`` x |E|) of
+    the decrease Armijo asks, the energy cannot judge the step: it is then taken only where it
+    also lowers the residual (a full step near the tolerance: by ``residual_acceptance``).
+    Energy changes at round-off cannot tell a step from its way back: without this, Newton
+    cycled between states just above the tolerance until it ran out of iterations
+    (docs/solver.md, "Newton")."""
     marquardt_short_step: float = 0.1
     """An accepted step length below this grows the Marquardt damping."""
     marquardt_growth: float = 10.0
@@ -373,16 +380,19 @@ def _conjugate_gradients(K, g, r, solver, steps: int, options: NewtonOptions):
     return None, False
 
 
-def _line_search(terms, x, E, step, slope, shape, alpha, options: NewtonOptions):
+def _line_search(terms, x, E, step, slope, shape, alpha, options: NewtonOptions, residual=None):
     """Backtracking Armijo from ``alpha`` (the step cap): (alpha, x_new, E_new) of the first
-    admissible trial with sufficient decrease; alpha < min_alpha when none was found."""
+    admissible trial with sufficient decrease; alpha < min_alpha when none was found.
+    ``residual(x_new) -> bool`` (:attr:`NewtonOptions.residual_search`): a trial whose energy
+    change lies within the round-off slack of what Armijo asks must also pass it."""
     slack = options.energy_slack * abs(E)  # energy round-off: lets full Newton steps through near convergence
     xn, En = x, E
     while alpha >= options.min_alpha:
         xn = x + alpha * step
         En = sum_energy(terms, xn.reshape(shape))
         if np.isfinite(En) and En <= E + options.armijo * alpha * slope + slack:
-            break
+            if residual is None or En < E + options.armijo * alpha * slope - slack or residual(xn):
+                break
         alpha *= options.backtrack
     return alpha, xn, En
 
@@ -398,9 +408,11 @@ def _full_step_by_residual(terms, x, E, step, slope, shape, cap, r, tol, fidx, o
     En = sum_energy(terms, xn.reshape(shape))
     if not np.isfinite(En):
         return None, x, E
-    if En <= E + options.armijo * slope + options.energy_slack * abs(E):
-        return 1.0, xn, En
     xs = xn.reshape(shape)
+    slack = options.energy_slack * abs(E)
+    if En <= E + options.armijo * slope + slack and (not options.residual_search
+                                                     or En < E + options.armijo * slope - slack):
+        return 1.0, xn, En
     rn = float(np.linalg.norm(sum(t.gradient(xs) for t in terms)[fidx]))
     return (1.0, xn, En) if rn <= options.residual_acceptance * r else (None, x, E)
 
@@ -585,9 +597,14 @@ def minimize(
         cap = min([1.0] + [t.max_step(xs, step.reshape(shape)) for t in terms])
         tm.step_cap += time.perf_counter() - t0
         t0 = time.perf_counter()
+
+        def residual(xn, r=r):  # a trial the energy accepts only by its round-off slack: the residual must fall
+            return float(np.linalg.norm(sum(t.gradient(xn.reshape(shape)) for t in terms)[fidx])) < r
+
+        residual = residual if options.residual_search else None
         alpha, xn, En = _full_step_by_residual(terms, x, E, step, slope, shape, cap, r, tol, fidx, options)
         if alpha is None:
-            alpha, xn, En = _line_search(terms, x, E, step, slope, shape, cap, options)
+            alpha, xn, En = _line_search(terms, x, E, step, slope, shape, cap, options, residual)
         tm.line_search += time.perf_counter() - t0
         tm.iterations += 1
         if alpha < options.min_alpha:
