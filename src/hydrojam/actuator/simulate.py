@@ -36,8 +36,11 @@ STABILISATION = 0.01
 #: increment of a long chamber never grew again after one halving.
 #: A step is first tried undamped, in up to 3 blocks of 200 iterations, before the damping
 #: comes in, from where the blocks stopped (docs/solver.md, "Undamped first").
+#: A step the energy's round-off cannot judge must lower the residual (``residual_search``):
+#: long chambers' rounds cycled between states just above the tolerance (docs/solver.md, "Newton").
 ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=30,
-                            newton=NewtonOptions(max_iter=200, definite=True, fallback_start="krylov_detect"),
+                            newton=NewtonOptions(max_iter=200, definite=True, fallback_start="krylov_detect",
+                                                 residual_search=True),
                             damping_start=0.0,
                             damping_relax_after=1, undamped_blocks=3, damped_from_blocks=True)
 
