@@ -397,6 +397,17 @@ def _line_search(terms, x, E, step, slope, shape, alpha, options: NewtonOptions,
     return alpha, xn, En
 
 
+def _lowers_residual(terms, shape, fidx, r: float):
+    """The test :func:`_line_search` applies where the energy cannot judge a trial
+    (:attr:`NewtonOptions.residual_search`): whether the residual at the trial x (flat [mm]) is
+    below r [N]."""
+
+    def lowers(xn: np.ndarray) -> bool:
+        return float(np.linalg.norm(sum(t.gradient(xn.reshape(shape)) for t in terms)[fidx])) < r
+
+    return lowers
+
+
 def _full_step_by_residual(terms, x, E, step, slope, shape, cap, r, tol, fidx, options: NewtonOptions):
     """Near the tolerance (r <= stall_factor x tol), the full uncapped step judged by the residual
     where the energy cannot judge it: (1, x_new, E_new) when it is admissible and passes the
@@ -597,11 +608,7 @@ def minimize(
         cap = min([1.0] + [t.max_step(xs, step.reshape(shape)) for t in terms])
         tm.step_cap += time.perf_counter() - t0
         t0 = time.perf_counter()
-
-        def residual(xn, r=r):  # a trial the energy accepts only by its round-off slack: the residual must fall
-            return float(np.linalg.norm(sum(t.gradient(xn.reshape(shape)) for t in terms)[fidx])) < r
-
-        residual = residual if options.residual_search else None
+        residual = _lowers_residual(terms, shape, fidx, r) if options.residual_search else None
         alpha, xn, En = _full_step_by_residual(terms, x, E, step, slope, shape, cap, r, tol, fidx, options)
         if alpha is None:
             alpha, xn, En = _line_search(terms, x, E, step, slope, shape, cap, options, residual)
