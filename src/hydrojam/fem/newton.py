@@ -397,13 +397,18 @@ def _line_search(terms, x, E, step, slope, shape, alpha, options: NewtonOptions,
     return alpha, xn, En
 
 
+def _residual_norm(terms, xs: np.ndarray, fidx: np.ndarray) -> float:
+    """||g_free|| [N] of ``terms`` at positions xs (n, d) [mm]."""
+    return float(np.linalg.norm(sum(t.gradient(xs) for t in terms)[fidx]))
+
+
 def _lowers_residual(terms, shape, fidx, r: float):
     """The test :func:`_line_search` applies where the energy cannot judge a trial
     (:attr:`NewtonOptions.residual_search`): whether the residual at the trial x (flat [mm]) is
     below r [N]."""
 
     def lowers(xn: np.ndarray) -> bool:
-        return float(np.linalg.norm(sum(t.gradient(xn.reshape(shape)) for t in terms)[fidx])) < r
+        return _residual_norm(terms, xn.reshape(shape), fidx) < r
 
     return lowers
 
@@ -424,8 +429,7 @@ def _full_step_by_residual(terms, x, E, step, slope, shape, cap, r, tol, fidx, o
     if En <= E + options.armijo * slope + slack and (not options.residual_search
                                                      or En < E + options.armijo * slope - slack):
         return 1.0, xn, En
-    rn = float(np.linalg.norm(sum(t.gradient(xs) for t in terms)[fidx]))
-    return (1.0, xn, En) if rn <= options.residual_acceptance * r else (None, x, E)
+    return (1.0, xn, En) if _residual_norm(terms, xs, fidx) <= options.residual_acceptance * r else (None, x, E)
 
 
 def _marquardt_update(lm: float, alpha: float, options: NewtonOptions) -> float:
