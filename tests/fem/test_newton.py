@@ -420,3 +420,50 @@ def test_an_unknown_fallback_start_is_refused():
     with pytest.raises(ValueError, match="fallback_start"):
         minimize([_SaddleValley()], np.zeros((3, 1)), np.ones(3, dtype=bool), 1.0,
                  NewtonOptions(fallback_start="sometimes"))
+
+
+def _blas_threads():
+    """The thread counts of the BLAS libraries numpy and SciPy loaded (threadpoolctl's view)."""
+    from threadpoolctl import threadpool_info
+
+    return [i["num_threads"] for i in threadpool_info() if i["internal_api"] in ("openblas", "blis", "flexiblas")]
+
+
+class _ThreadRecorder(_Quadratic):
+    """A quadratic that records the BLAS thread counts whenever its gradient is asked."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.seen = []
+
+    def gradient(self, x):
+        self.seen.append(_blas_threads())
+        return super().gradient(x)
+
+
+@pytest.mark.parametrize("setting, expected", [(None, 1), ("2", 2)])
+def test_blas_runs_on_the_set_threads_inside_a_minimisation_and_as_before_after(monkeypatch, setting, expected):
+    """numpy's and SciPy's BLAS run on HYDROJAM_BLAS_THREADS threads (default 1) while Newton
+    minimises (docs/solver.md, "Threads": OpenBLAS's own threads beside another busy process
+    slowed two 3D runs at once 1.8x), and the process's own setting is back afterwards."""
+    from threadpoolctl import threadpool_limits
+
+    if not _blas_threads():
+        pytest.skip("no OpenBLAS, BLIS or FlexiBLAS loaded")
+    if setting is None:
+        monkeypatch.delenv("HYDROJAM_BLAS_THREADS", raising=False)
+    else:
+        monkeypatch.setenv("HYDROJAM_BLAS_THREADS", setting)
+    with threadpool_limits(limits=3, user_api="blas"):
+        term = _ThreadRecorder(np.zeros(3), np.full(3, 5.0))
+        assert _minimise(term).converged
+        after = _blas_threads()
+    assert term.seen and all(t == expected for seen in term.seen for t in seen), term.seen
+    assert all(t == 3 for t in after), after
+
+
+@pytest.mark.parametrize("value", ["abc", "0", "-1", ""])
+def test_invalid_blas_thread_counts_are_refused_by_name(monkeypatch, value):
+    monkeypatch.setenv("HYDROJAM_BLAS_THREADS", value)
+    with pytest.raises(ValueError, match="HYDROJAM_BLAS_THREADS must be a positive integer"):
+        _minimise(_Quadratic(np.zeros(3), np.full(3, 5.0)))

@@ -19,9 +19,9 @@ from pathlib import Path
 _PACKAGES = ("hydrojam", "numpy", "scipy", "ipctk", "gmsh", "pypardiso", "mkl", "numba", "meshio")
 
 #: environment variables that set threads or switch code paths of the computation
-_VARIABLES = ("HYDROJAM_SOLVER_THREADS", "HYDROJAM_IPC_THREADS", "HYDROJAM_REUSE_ANALYSIS", "HYDROJAM_COMPILED",
-              "OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS", "OPENBLAS_CORETYPE", "MKL_CBWR",
-              "MKL_ENABLE_INSTRUCTIONS")
+_VARIABLES = ("HYDROJAM_SOLVER_THREADS", "HYDROJAM_IPC_THREADS", "HYDROJAM_BLAS_THREADS", "HYDROJAM_REUSE_ANALYSIS",
+              "HYDROJAM_COMPILED", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+              "OPENBLAS_CORETYPE", "MKL_CBWR", "MKL_ENABLE_INSTRUCTIONS")
 
 
 def _version(name: str) -> str | None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 
 
@@ -29,3 +30,38 @@ def flag(name: str, default: bool) -> bool:
     if raw.strip() not in ("0", "1"):
         raise ValueError(f"{name} must be 0 or 1; got {raw!r}")
     return raw.strip() == "1"
+
+
+#: the BLAS libraries that numpy and SciPy may load (threadpoolctl's names); MKL is not among
+#: them: its threads are PARDISO's, set per handle by ``HYDROJAM_SOLVER_THREADS`` (linsolve.py)
+_BLAS = ["openblas", "blis", "flexiblas"]
+_controller = None
+
+
+def limited_blas():
+    """A context in which numpy's and SciPy's BLAS run on ``HYDROJAM_BLAS_THREADS`` threads (a
+    positive integer, default 1), their setting restored on exit.
+
+    Why: OpenBLAS threads the dot products of vectors above about 10k entries (the norms of a 3D
+    residual), and beside another busy process (a sweep's second worker) each such call then
+    waits for a thread the scheduler has not run yet: two 3D runs at once took 1.8x longer a
+    Newton iteration with OpenBLAS's default threads (docs/solver.md, "Threads"). The libraries
+    are found once, at the first call (numpy's and SciPy's are loaded by then)."""
+    global _controller
+    threads = positive_int("HYDROJAM_BLAS_THREADS", 1)
+    if _controller is None:
+        from threadpoolctl import ThreadpoolController
+
+        _controller = ThreadpoolController().select(internal_api=_BLAS)
+    return _controller.limit(limits=threads)
+
+
+def blas_limited(function):
+    """``function`` run inside :func:`limited_blas` (a decorator)."""
+
+    @functools.wraps(function)
+    def limited(*args, **kwargs):
+        with limited_blas():
+            return function(*args, **kwargs)
+
+    return limited

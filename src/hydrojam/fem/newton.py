@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from hydrojam.fem._env import blas_limited
 from hydrojam.fem.linsolve import LinearSolver, LinearSolveError, NotPositiveDefinite
 from hydrojam.fem.terms import EnergyTerm
 
@@ -544,6 +545,7 @@ def lowest_mode(
     return value, mode / max(float(np.linalg.norm(mode, axis=1).max()), _TINY)
 
 
+@blas_limited
 def minimize(
     terms: Sequence[EnergyTerm],
     x0: np.ndarray,

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from hydrojam.fem._env import blas_limited
 from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
 from hydrojam.fem.newton import (NewtonOptions, NewtonResult, NewtonStatus, Timings, lowest_mode, minimize,
                                  negative_curvature, sum_energy)
@@ -514,6 +515,7 @@ class _Walk:
                           self.rejected)
 
 
+@blas_limited
 def solve_path(
     problem: Problem,
     options: PathOptions = PathOptions(),
