@@ -444,7 +444,7 @@ class _ThreadRecorder(_Quadratic):
 @pytest.mark.parametrize("setting, expected", [(None, 1), ("2", 2)])
 def test_blas_runs_on_the_set_threads_inside_a_minimisation_and_as_before_after(monkeypatch, setting, expected):
     """numpy's and SciPy's BLAS run on HYDROJAM_BLAS_THREADS threads (default 1) while Newton
-    minimises (docs/solver.md, "Threads": OpenBLAS's own threads beside another busy process
+    minimises (docs/solver.md, "3D: ordering, threads": OpenBLAS's own threads beside another busy process
     slowed two 3D runs at once 1.8x), and the process's own setting is back afterwards."""
     from threadpoolctl import threadpool_limits
 

@@ -45,7 +45,7 @@ def limited_blas():
     Why: OpenBLAS threads the dot products of vectors above about 10k entries (the norms of a 3D
     residual), and beside another busy process (a sweep's second worker) each such call then
     waits for a thread the scheduler has not run yet: two 3D runs at once took 1.8x longer a
-    Newton iteration with OpenBLAS's default threads (docs/solver.md, "Threads"). The libraries
+    Newton iteration with OpenBLAS's default threads (docs/solver.md, "3D: ordering, threads"). The libraries
     are found once, at the first call (numpy's and SciPy's are loaded by then)."""
     global _controller
     threads = positive_int("HYDROJAM_BLAS_THREADS", 1)
