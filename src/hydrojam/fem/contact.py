@@ -299,27 +299,33 @@ class Contact(EnergyTerm):
         candidates alone couple primitives whose boxes merely overlap, and on a jammed 3D
         packing their fill slowed every factorisation more than the analyses they saved
         (docs/solver.md, "A changing contact pattern")."""
-        from hydrojam.fem._proximity import close_pairs  # compiled: numba only where a pattern is asked
-
         V = self._vertices(x)
         reach = self.settings.reach
+        cand = ipctk.Candidates()
+        cand.build(self._cm, V, 0.5 * self.settings.dhat + reach)
         limit = (self.settings.dhat + 2.0 * reach) ** 2  # ipctk's distances are squared
-        E, F = np.asarray(self._cm.edges), np.asarray(self._cm.faces)
-        points = np.arange(len(V))[:, None]
-        comps = self.components
+        E, F = self._cm.edges, self._cm.faces
+        kept = []
         if self.dim == 2:
-            pairs, unsure = close_pairs(V, points, E, comps, limit)
-            keep = self._decide(pairs, unsure, lambda v, e: ipctk.point_edge_distance(V[v], *V[E[e]]), limit)
-            kept = np.column_stack([E[pairs[keep, 1]], pairs[keep, 0]])
+            distance = ipctk.point_edge_distance
+            for c in cand.ev_candidates:
+                a, b = E[c.edge_id]
+                v = c.vertex_id
+                if distance(V[v], V[a], V[b]) < limit:
+                    kept.append((a, b, v))
         else:
-            pairs, unsure = close_pairs(V, points, F, comps, limit)
-            keep = self._decide(pairs, unsure, lambda v, f: ipctk.point_triangle_distance(V[v], *V[F[f]]), limit)
-            fv = np.column_stack([F[pairs[keep, 1]], pairs[keep, 0]])
-            pairs, unsure = close_pairs(V, E, E, comps, limit, same=True)
-            keep = self._decide(pairs, unsure, lambda a, b: ipctk.edge_edge_distance(*V[E[a]], *V[E[b]]), limit)
-            kept = np.concatenate([fv, np.column_stack([E[pairs[keep, 0]], E[pairs[keep, 1]]])])
+            pt, ee = ipctk.point_triangle_distance, ipctk.edge_edge_distance
+            for c in cand.fv_candidates:
+                a, b, f = F[c.face_id]
+                v = c.vertex_id
+                if pt(V[v], V[a], V[b], V[f]) < limit:
+                    kept.append((a, b, f, v))
+            for c in cand.ee_candidates:
+                (a, b), (e, f) = E[c.edge0_id], E[c.edge1_id]
+                if ee(V[a], V[b], V[e], V[f]) < limit:
+                    kept.append((a, b, e, f))
         d = self.dim
-        stencils = np.asarray(kept, dtype=np.int64).reshape(-1, d + 1)
+        stencils = np.array(kept, dtype=np.int64).reshape(-1, d + 1)
         m, nv = stencils.shape[1], self._cm.num_vertices
         vi, vj = np.repeat(stencils, m, axis=1).ravel(), np.tile(stencils, (1, m)).ravel()
         pairs = sp.csr_matrix((np.ones(len(vi)), (vi, vj)), shape=(nv, nv))
@@ -327,15 +333,6 @@ class Contact(EnergyTerm):
         P = sp.csr_matrix(self._cm.to_full_dof(sp.kron(pairs, np.ones((d, d)), format="csc")))
         P.data[:] = 1.0
         return P
-
-    @staticmethod
-    def _decide(pairs: np.ndarray, unsure: np.ndarray, distance, limit: float) -> np.ndarray:
-        """Which of ``pairs`` to keep: all that ``close_pairs`` found closer than ``limit``
-        [mm^2], those it found within round-off of it decided by ipctk's ``distance(i, j)``."""
-        keep = np.ones(len(pairs), dtype=bool)
-        for k in np.flatnonzero(unsure):
-            keep[k] = distance(int(pairs[k, 0]), int(pairs[k, 1])) < limit
-        return keep
 
     def max_step(self, x: np.ndarray, dx: np.ndarray) -> float:
         """Largest collision-free fraction of the step x -> x + dx (continuous collision detection)."""
