@@ -559,3 +559,22 @@ def test_folder_kind_reads_the_markers(tmp_path):
             check_folder_kind(folder, kind)  # the same kind: a rerun, a resume
         with pytest.raises(FolderKindError, match="choose another output folder"):
             check_folder_kind(folder, "snapshots")
+
+
+@pytest.mark.parametrize("variable, value, allowed", [("HYDROJAM_BLAS_THREADS", "abc", "positive integer"),
+                                                      ("HYDROJAM_SOLVER_THREADS", "0", "positive integer"),
+                                                      ("HYDROJAM_IPC_THREADS", "-1", "positive integer"),
+                                                      ("HYDROJAM_REUSE_ANALYSIS", "yes", "0 or 1"),
+                                                      ("HYDROJAM_COMPILED", "2", "0 or 1")])
+def test_an_invalid_environment_variable_is_refused_before_any_work(capsys, tmp_path, monkeypatch, variable, value,
+                                                                    allowed):
+    """A thread count or switch in the environment that hydrojam cannot use: one line naming it
+    and its allowed values, exit status 2, nothing written (the solver would otherwise find it
+    only when built, mid-run, after the outputs were begun)."""
+    design = tmp_path / "design.toml"
+    assert run(capsys, "init", str(design))[0] == 0
+    monkeypatch.setenv(variable, value)
+    rc, out, err = run(capsys, "run", str(design), "-o", str(tmp_path / "out"), "--set", "particle_layers=1")
+    assert rc == 2, err
+    assert len(err.strip().splitlines()) == 1 and variable in err and allowed in err, err
+    assert "Traceback" not in err and not (tmp_path / "out").exists()

@@ -63,6 +63,12 @@ def _root(
                                  help="Print hydrojam's version and exit."),
 ) -> None:
     """Units: mm, MPa, K; chemical potential mu in k_B T."""
+    from hydrojam.fem._env import check_environment
+
+    try:
+        check_environment()
+    except ValueError as err:
+        raise InputError(str(err)) from None
 
 
 def _temperatures(temperatures: str | None, t_min, t_max, t_step) -> list[float]:

@@ -32,6 +32,22 @@ def flag(name: str, default: bool) -> bool:
     return raw.strip() == "1"
 
 
+
+#: every thread count hydrojam reads from the environment (positive integers, default 1)
+THREAD_VARIABLES = ("HYDROJAM_SOLVER_THREADS", "HYDROJAM_IPC_THREADS", "HYDROJAM_BLAS_THREADS")
+#: every switch it reads (0 or 1)
+SWITCH_VARIABLES = ("HYDROJAM_REUSE_ANALYSIS", "HYDROJAM_COMPILED")
+
+
+def check_environment() -> None:
+    """Validate every variable hydrojam reads from the environment at once, before any work
+    (the solver reads each only when it is built): a ValueError naming the first invalid one
+    and its allowed values."""
+    for name in THREAD_VARIABLES:
+        positive_int(name, 1)
+    for name in SWITCH_VARIABLES:
+        flag(name, True)
+
 #: the BLAS libraries that numpy and SciPy may load (threadpoolctl's names); MKL is not among
 #: them: its threads are PARDISO's, set per handle by ``HYDROJAM_SOLVER_THREADS`` (linsolve.py)
 _BLAS = ["openblas", "blis", "flexiblas"]
