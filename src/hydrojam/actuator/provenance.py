@@ -15,12 +15,13 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
+from hydrojam.fem._env import SWITCH_VARIABLES, THREAD_VARIABLES
+
 #: distributions whose version can change a result's last bits (solver, contact, mesh, kernels)
 _PACKAGES = ("hydrojam", "numpy", "scipy", "ipctk", "gmsh", "pypardiso", "mkl", "numba", "meshio")
 
 #: environment variables that set threads or switch code paths of the computation
-_VARIABLES = ("HYDROJAM_SOLVER_THREADS", "HYDROJAM_IPC_THREADS", "HYDROJAM_BLAS_THREADS", "HYDROJAM_REUSE_ANALYSIS",
-              "HYDROJAM_COMPILED", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+_VARIABLES = (*THREAD_VARIABLES, *SWITCH_VARIABLES, "OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
               "OPENBLAS_CORETYPE", "MKL_CBWR", "MKL_ENABLE_INSTRUCTIONS")
 
 

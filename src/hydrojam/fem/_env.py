@@ -32,7 +32,6 @@ def flag(name: str, default: bool) -> bool:
     return raw.strip() == "1"
 
 
-
 #: every thread count hydrojam reads from the environment (positive integers, default 1)
 THREAD_VARIABLES = ("HYDROJAM_SOLVER_THREADS", "HYDROJAM_IPC_THREADS", "HYDROJAM_BLAS_THREADS")
 #: every switch it reads (0 or 1)
@@ -48,6 +47,7 @@ def check_environment() -> None:
     for name in SWITCH_VARIABLES:
         flag(name, True)
 
+
 #: the BLAS libraries that numpy and SciPy may load (threadpoolctl's names); MKL is not among
 #: them: its threads are PARDISO's, set per handle by ``HYDROJAM_SOLVER_THREADS`` (linsolve.py)
 _BLAS = ["openblas", "blis", "flexiblas"]
@@ -61,8 +61,8 @@ def limited_blas():
     Why: OpenBLAS threads the dot products of vectors above about 10k entries (the norms of a 3D
     residual), and beside another busy process (a sweep's second worker) each such call then
     waits for a thread the scheduler has not run yet: two 3D runs at once took 1.8x longer a
-    Newton iteration with OpenBLAS's default threads (docs/solver.md, "3D: ordering, threads"). The libraries
-    are found once, at the first call (numpy's and SciPy's are loaded by then)."""
+    Newton iteration with OpenBLAS's default threads (docs/solver.md, "3D: ordering, threads").
+    The libraries are found once, at the first call (numpy's and SciPy's are loaded by then)."""
     global _controller
     threads = positive_int("HYDROJAM_BLAS_THREADS", 1)
     if _controller is None:
