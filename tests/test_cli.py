@@ -578,3 +578,11 @@ def test_an_invalid_environment_variable_is_refused_before_any_work(capsys, tmp_
     assert rc == 2, err
     assert len(err.strip().splitlines()) == 1 and variable in err and allowed in err, err
     assert "Traceback" not in err and not (tmp_path / "out").exists()
+
+
+def test_help_and_version_still_answer_with_an_invalid_environment(capsys, monkeypatch):
+    """Help and the version run nothing, so an invalid thread count does not stop them."""
+    monkeypatch.setenv("HYDROJAM_BLAS_THREADS", "abc")
+    for args in (["run", "--help"], ["--version"], ["sweep", "-h"]):
+        rc, out, err = run(capsys, *args)
+        assert rc == 0 and out and "HYDROJAM_BLAS_THREADS" not in err, (args, err)

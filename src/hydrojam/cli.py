@@ -63,8 +63,15 @@ def _root(
                                  help="Print hydrojam's version and exit."),
 ) -> None:
     """Units: mm, MPa, K; chemical potential mu in k_B T."""
+
+
+def _check_environment(args: list[str]) -> None:
+    """Every thread count and switch hydrojam reads from the environment, checked before any work
+    (an InputError naming the first invalid one); not for help or the version, which run nothing."""
     from hydrojam.fem._env import check_environment
 
+    if not args or {"-h", "--help", "--version"} & set(args):
+        return
     try:
         check_environment()
     except ValueError as err:
@@ -1005,6 +1012,7 @@ def _file_system_error(err: OSError) -> str | None:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydrojam`` command; returns the exit status."""
     try:
+        _check_environment(sys.argv[1:] if argv is None else list(argv))
         # without standalone mode click returns a typer.Exit's code instead of raising it
         status = app(args=argv, prog_name="hydrojam", standalone_mode=False)
     except InputError as err:
