@@ -392,10 +392,17 @@ def _line_search(terms, x, E, step, slope, shape, alpha, options: NewtonOptions,
         xn = x + alpha * step
         En = sum_energy(terms, xn.reshape(shape))
         if np.isfinite(En) and En <= E + options.armijo * alpha * slope + slack:
-            if residual is None or En < E + options.armijo * alpha * slope - slack or residual(xn):
+            if residual is None or not _blind(En, E + options.armijo * alpha * slope, slack) or residual(xn):
                 break
         alpha *= options.backtrack
     return alpha, xn, En
+
+
+def _blind(En: float, demanded: float, slack: float) -> bool:
+    """Whether an energy En [mJ] that meets Armijo's ``demanded`` energy within the round-off
+    ``slack`` (En <= demanded + slack) lies inside that slack, where the energy cannot judge the
+    step (:attr:`NewtonOptions.residual_search`)."""
+    return En >= demanded - slack
 
 
 def _residual_norm(terms, xs: np.ndarray, fidx: np.ndarray) -> float:
@@ -425,12 +432,12 @@ def _full_step_by_residual(terms, x, E, step, slope, shape, cap, r, tol, fidx, o
     En = sum_energy(terms, xn.reshape(shape))
     if not np.isfinite(En):
         return None, x, E
-    xs = xn.reshape(shape)
     slack = options.energy_slack * abs(E)
     if En <= E + options.armijo * slope + slack and (not options.residual_search
-                                                     or En < E + options.armijo * slope - slack):
+                                                     or not _blind(En, E + options.armijo * slope, slack)):
         return 1.0, xn, En
-    return (1.0, xn, En) if _residual_norm(terms, xs, fidx) <= options.residual_acceptance * r else (None, x, E)
+    rn = _residual_norm(terms, xn.reshape(shape), fidx)
+    return (1.0, xn, En) if rn <= options.residual_acceptance * r else (None, x, E)
 
 
 def _marquardt_update(lm: float, alpha: float, options: NewtonOptions) -> float:
