@@ -80,3 +80,36 @@ def test_a_marked_section_of_a_page_is_replaced_and_nothing_else():
     assert path_benchmark.replace_section(out, "t", "new table") == out
     with pytest.raises(ValueError, match="no section"):
         path_benchmark.replace_section(page, "other", "x")
+
+
+def test_the_cudss_recorder_stores_pardisos_calls_as_solvable_upper_triangles(tmp_path):
+    """``cudss.py record``: each PARDISO call is kept with the pattern in force (1-based upper
+    CSR), the values it factorised and its right-hand side, from which the replay rebuilds K;
+    uninstalled, PARDISO's call is back."""
+    import cudss
+
+    from hydrojam.fem import linsolve
+
+    if not linsolve._pardiso_available():
+        pytest.skip("PARDISO is not available")
+    saved = linsolve._Pardiso.solve
+    n = 30
+    K = sp.diags([-np.ones(n - 1), 4.0 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1], format="csr")
+    b = np.arange(1.0, n + 1)
+    recorder = cudss.Recorder(pick={1})
+    recorder.install()
+    try:
+        solver = LinearSolver("pardiso")
+        x0 = solver.solve(K, b)
+        x1 = solver.solve(2.0 * K, b)
+    finally:
+        recorder.uninstall()
+    assert linsolve._Pardiso.solve is saved
+    assert [m["new"] for m in recorder.meta] == [True, False] and all(m["ok"] for m in recorder.meta)
+    kept = recorder.save(str(tmp_path / "calls.npz.xz"))
+    meta, z = cudss._load(str(tmp_path / "calls.npz.xz"))
+    assert meta == kept and [m["i"] for m in meta] == [1] and meta[0]["pattern"] == 0
+    K1 = cudss._full(z["ia0"], z["ja0"], z["val1"])
+    scale = np.abs(K1).max() * np.linalg.norm(x1)
+    assert np.linalg.norm(K1 @ x1 - z["rhs1"]) <= 1e-12 * scale
+    assert np.allclose(x0, 2.0 * x1, rtol=1e-12, atol=0.0)
