@@ -168,9 +168,10 @@ def _cudss():
     lib = os.environ.get("HYDROJAM_CUDSS_LIB")
     if not lib:
         try:
-            import nvidia.cu13
-            lib = str(Path(list(nvidia.cu13.__path__)[0]) / "lib" / "libcudss.so.0")
-        except ImportError:
+            import nvidia.cu13  # a namespace package: the CUDA 13 wheels' folders
+            found = [Path(p) / "lib" / "libcudss.so.0" for p in nvidia.cu13.__path__]
+            lib = str(next(f for f in found if f.exists()))
+        except (ImportError, StopIteration):
             raise SystemExit("replay needs cuDSS: pip install -e '.[gpu-bench]', "
                              "or HYDROJAM_CUDSS_LIB=/path/to/libcudss.so.0") from None
     return ctypes.CDLL(lib), cupy
