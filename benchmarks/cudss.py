@@ -96,7 +96,7 @@ class Recorder:
                 row["pardiso_ms"] = 1e3 * (time.perf_counter() - t)
                 row["factor_entries"] = pardiso.factor_entries()
                 recorder.meta.append(row)
-                if recorder.pick is None or i in recorder.pick:
+                if recorder.kept(i):
                     p, pia, pja = recorder._patterns[h]
                     recorder.arrays.setdefault(f"ia{p}", pia)
                     recorder.arrays.setdefault(f"ja{p}", pja)
@@ -105,6 +105,10 @@ class Recorder:
 
         linsolve._Pardiso.solve = solve
 
+    def kept(self, i: int) -> bool:
+        """Whether call ``i``'s arrays are kept (``pick``)."""
+        return self.pick is None or i in self.pick
+
     def uninstall(self) -> None:
         from hydrojam.fem import linsolve
 
@@ -112,7 +116,7 @@ class Recorder:
 
     def save(self, path: str) -> list[dict]:
         """Write the calls kept to ``path`` (one lzma-compressed .npz); their rows."""
-        kept = [m for m in self.meta if self.pick is None or m["i"] in self.pick]
+        kept = [m for m in self.meta if self.kept(m["i"])]
         buffer = io.BytesIO()
         np.savez(buffer, meta=np.array(json.dumps(kept)), **self.arrays)
         Path(path).write_bytes(lzma.compress(buffer.getvalue(), preset=6))
@@ -229,16 +233,19 @@ class _CuDSS:
     def _execute(self, phase: int) -> int:
         return self.L.cudssExecute(self.h, phase, self.cfg, self.data, self.A, self.X, self.B)
 
-    def factorise(self, values) -> tuple[float, float]:
-        """(host-to-device copy, factorisation) [s]: a refactorisation after a successful one."""
+    def factorise(self, values) -> tuple[float, float, int]:
+        """(host-to-device copy [s], factorisation [s], cuDSS's info: 0, or the pivot where a
+        Cholesky stopped): a refactorisation after a successful one."""
         t0 = time.perf_counter()
         self.v.set(np.asarray(values, dtype=self.dtype))
         self._sync()
         t1 = time.perf_counter()
         self._check(self._execute(REFACTORIZATION if self.factorised else FACTORIZATION), "factorisation")
         self._sync()
-        self.factorised = self.info() == 0
-        return t1 - t0, time.perf_counter() - t1
+        t2 = time.perf_counter()
+        info = self.info()
+        self.factorised = info == 0
+        return t1 - t0, t2 - t1, info
 
     def solve(self, b) -> tuple[np.ndarray, float]:
         """The solution for b, in double, and the time of copy, substitution and copy back [s]."""
@@ -289,8 +296,7 @@ def replay_sequence(lib, cupy, meta, z, label: str, dtype, host_threads: int = 0
         t_analysis = 0.0
         if m["pattern"] != current:
             t_analysis, current = solver.analyse(ia, ja, values), m["pattern"]
-        t_copy, t_factor = solver.factorise(values)
-        info = solver.info()
+        t_copy, t_factor, info = solver.factorise(values)
         x, t_solve = solver.solve(b)
         K = _full(ia, ja, values)
         residual, steps = np.linalg.norm(K @ x - b) / np.linalg.norm(b), 0
@@ -331,7 +337,7 @@ def replay(path: str) -> None:
     m = meta[0]
     ldlt = _CuDSS(lib, cupy, MTYPE_SYMMETRIC, np.float64)
     t_a = ldlt.analyse(z[f"ia{m['pattern']}"], z[f"ja{m['pattern']}"], z[f"val{m['i']}"])
-    _, t_f = ldlt.factorise(z[f"val{m['i']}"])
+    _, t_f, _ = ldlt.factorise(z[f"val{m['i']}"])
     print(f"LDL^T of system {m['i']}: analysis {1e3 * t_a:.0f} ms, factorisation {1e3 * t_f:.1f} ms, "
           f"inertia (positive, negative) {ldlt.inertia()}")
     replay_sequence(lib, cupy, meta, z, "warm-up, Cholesky in double", np.float64)
