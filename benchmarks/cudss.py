@@ -89,7 +89,7 @@ class Recorder:
                 x = original(pardiso, data, ia, ja, b, reuse_analysis, ordering, keep_ordering)
                 row["ok"] = True
                 return x
-            except linsolve.LinearSolveError:
+            except pardiso.error:  # PARDISO's own error (a refused Cholesky), before LinearSolver wraps it
                 row["ok"] = False
                 raise
             finally:

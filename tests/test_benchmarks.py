@@ -102,10 +102,16 @@ def test_the_cudss_recorder_stores_pardisos_calls_as_solvable_upper_triangles(tm
         solver = LinearSolver("pardiso")
         x0 = solver.solve(K, b)
         x1 = solver.solve(2.0 * K, b)
+        cholesky = linsolve._Pardiso(1, 2)  # refuses -K, which is negative definite
+        upper = sp.triu(-K, format="csr")
+        with pytest.raises(cholesky.error):
+            cholesky.solve(upper.data, (upper.indptr + 1).astype(np.int32), (upper.indices + 1).astype(np.int32),
+                           b, reuse_analysis=False)
     finally:
         recorder.uninstall()
     assert linsolve._Pardiso.solve is saved
-    assert [m["new"] for m in recorder.meta] == [True, False] and all(m["ok"] for m in recorder.meta)
+    assert [m["new"] for m in recorder.meta] == [True, False, True]
+    assert [m["ok"] for m in recorder.meta] == [True, True, False]
     kept = recorder.save(str(tmp_path / "calls.npz.xz"))
     meta, z = cudss._load(str(tmp_path / "calls.npz.xz"))
     assert meta == kept and [m["i"] for m in meta] == [1] and meta[0]["pattern"] == 0
