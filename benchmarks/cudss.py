@@ -308,7 +308,7 @@ def replay_sequence(lib, cupy, meta, z, label: str, dtype, host_threads: int = 0
                 residual = np.linalg.norm(K @ x - b) / np.linalg.norm(b)
             t_solve += time.perf_counter() - t
         rows.append(dict(i=m["i"], analysis=1e3 * t_analysis, copy=1e3 * t_copy, factor=1e3 * t_factor,
-                         solve=1e3 * t_solve, info=info, pardiso_ok=m["ok"], residual=residual if info == 0 else None,
+                         solve=1e3 * t_solve, info=info, pardiso_ok=m.get("ok", False), residual=residual if info == 0 else None,
                          refinement=steps, factor_entries=solver.factor_entries(), pardiso=m["pardiso_ms"]))
     print(f"\n== {label}")
     for r in rows:

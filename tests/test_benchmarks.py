@@ -120,3 +120,42 @@ def test_the_cudss_recorder_stores_pardisos_calls_as_solvable_upper_triangles(tm
     scale = np.abs(K1).max() * np.linalg.norm(x1)
     assert np.linalg.norm(K1 @ x1 - z["rhs1"]) <= 1e-12 * scale
     assert np.allclose(x0, 2.0 * x1, rtol=1e-12, atol=0.0)
+
+
+def test_the_cholmod_replay_solves_every_recorded_cholesky_and_keeps_the_refusals(tmp_path, capsys):
+    """``cholmod.py``: a record's Cholesky calls replayed through PARDISO in single (refined) and
+    double precision, and CHOLMOD where scikit-sparse is installed: the same refusals as recorded,
+    and solutions to the precision each promises."""
+    import cholmod
+    import cudss
+
+    from hydrojam.fem import linsolve
+
+    if not linsolve._pardiso_available():
+        pytest.skip("PARDISO is not available")
+    n = 30
+    K = sp.diags([-np.ones(n - 1), 4.0 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1], format="csr")
+    b = np.arange(1.0, n + 1)
+    recorder = cudss.Recorder()
+    recorder.install()
+    try:
+        for matrix in (K, 2.0 * K, -K):  # the last is negative definite: refused
+            upper = sp.triu(matrix, format="csr")
+            handle = linsolve._Pardiso(1, 2)
+            try:
+                handle.solve(upper.data, (upper.indptr + 1).astype(np.int32), (upper.indices + 1).astype(np.int32),
+                             b, reuse_analysis=False)
+            except handle.error:
+                pass
+    finally:
+        recorder.uninstall()
+    recorder.save(str(tmp_path / "calls.npz.xz"))
+    rows = cholmod.replay(str(tmp_path / "calls.npz.xz"))
+    assert "PARDISO single" in rows and "PARDISO double" in rows
+    # K's condition number is below 3: a double solve's relative residual is a few 1e-16 (bound
+    # 1e-12), a single one is refined to 1e-8 (cholmod.REFINE_TO)
+    bounds = {name: cholmod.REFINE_TO if name == "PARDISO single" else 1e-12 for name in rows}
+    for name, r in rows.items():
+        assert [x["refused"] for x in r] == [False, False, True], name
+        assert all(x["residual"] <= bounds[name] for x in r[:2]), name
+    assert "max residual" in capsys.readouterr().out
