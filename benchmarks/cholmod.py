@@ -44,12 +44,9 @@ import scipy.sparse as sp
 from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from cudss import _full, _load  # noqa: E402
+from cudss import _full, _load, refine  # noqa: E402
 
 from hydrojam.fem import linsolve  # noqa: E402
-
-REFINE_TO, REFINE_STEPS = 1e-8, 6  # LinearSolver.refinement_tolerance and refinement_steps
-
 
 class _PardisoCholesky:
     """PARDISO's Cholesky on one handle, in single (refined in double) or in double precision."""
@@ -71,12 +68,7 @@ class _PardisoCholesky:
         except self.handle.error:
             x = None
         if x is not None and self.single:
-            r = b - K @ x
-            for _ in range(REFINE_STEPS):
-                if np.linalg.norm(r) <= REFINE_TO * np.linalg.norm(b):
-                    break
-                x = x + self.handle.resolve(r.astype(dtype)).astype(np.float64)
-                r = b - K @ x
+            x, _ = refine(lambda r: self.handle.resolve(r.astype(dtype)).astype(np.float64), K, b, x)
         elapsed = time.perf_counter() - t
         # PARDISO's phase 13 analyses and factorises in one call: its split is not known here
         return (elapsed, 0.0) if new else (0.0, elapsed), x, self.handle.factor_entries()

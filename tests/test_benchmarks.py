@@ -153,8 +153,8 @@ def test_the_cholmod_replay_solves_every_recorded_cholesky_and_keeps_the_refusal
     rows = cholmod.replay(str(tmp_path / "calls.npz.xz"))
     assert "PARDISO single" in rows and "PARDISO double" in rows
     # K's condition number is below 3: a double solve's relative residual is a few 1e-16 (bound
-    # 1e-12), a single one is refined to 1e-8 (cholmod.REFINE_TO)
-    bounds = {name: cholmod.REFINE_TO if name == "PARDISO single" else 1e-12 for name in rows}
+    # 1e-12), a single one is refined to 1e-8 (cudss.REFINE_TO)
+    bounds = {name: cudss.REFINE_TO if name == "PARDISO single" else 1e-12 for name in rows}
     for name, r in rows.items():
         assert [x["refused"] for x in r] == [False, False, True], name
         assert all(x["residual"] <= bounds[name] for x in r[:2]), name
