@@ -23,7 +23,7 @@ refusals, the largest relative residual ||K x - b|| / ||b|| and the mean factor 
 thread for MKL and for the BLAS.
 
 CHOLMOD is not a dependency of hydrojam. On Debian 12: ``apt-get install libsuitesparse-dev
-libopenblas0-pthread`` (SuiteSparse 5.12 on OpenBLAS; the reference BLAS is many times slower),
+libopenblas0-pthread`` (SuiteSparse 5.12 on OpenBLAS, instead of the unoptimised reference BLAS),
 then ``.venv/bin/pip install "scikit-sparse<0.5"`` (0.5 builds against SuiteSparse 7 only). The
 values recorded for PARDISO's single-precision calls are single precision: every solver gets
 them, in its own precision.
