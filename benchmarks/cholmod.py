@@ -9,8 +9,8 @@ union pattern, the values PARDISO factorised, the right-hand side, whether the c
 new pattern and whether the Cholesky refused the matrix). Every Cholesky call (the definite
 solves of the inertia correction) is replayed, interleaved, through
 
-- "PARDISO single": PARDISO's Cholesky in single precision, refined in double to 1e-8 as
-  ``LinearSolver`` does (hydrojam's solver for these systems),
+- "PARDISO single": PARDISO's Cholesky in single precision, refined in double to 1e-8 in at
+  most 6 substitutions, ``LinearSolver``'s target and limit (hydrojam's solver for these systems),
 - "PARDISO double": PARDISO's Cholesky in double,
 - "CHOLMOD metis" (or the ``--ordering`` given): CHOLMOD's supernodal Cholesky in double
   (scikit-sparse), where it is installed,
@@ -47,6 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cudss import _full, _load, refine  # noqa: E402
 
 from hydrojam.fem import linsolve  # noqa: E402
+
 
 class _PardisoCholesky:
     """PARDISO's Cholesky on one handle, in single (refined in double) or in double precision."""

@@ -281,13 +281,15 @@ def _load(path: str):
     return json.loads(str(z["meta"])), z
 
 
-REFINE_TO, REFINE_STEPS = 1e-8, 6  # LinearSolver.refinement_tolerance and refinement_steps
+# LinearSolver.refinement_tolerance and refinement_steps, as literals: the GPU replay runs
+# without importing hydrojam
+REFINE_TO, REFINE_STEPS = 1e-8, 6
 
 
 def refine(solve, K, b: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, int]:
-    """x refined in double against K, as LinearSolver refines a single-precision solution:
-    x += solve(b - K x) while ||K x - b|| > REFINE_TO ||b||, at most REFINE_STEPS times; (x, the
-    substitutions made)."""
+    """x refined in double against K to LinearSolver's target and step limit: x += solve(b - K x)
+    while ||K x - b|| > REFINE_TO ||b||, at most REFINE_STEPS times (LinearSolver also stops
+    where a step does not halve the residual); (x, the substitutions made)."""
     steps, target = 0, REFINE_TO * np.linalg.norm(b)
     while np.linalg.norm(K @ x - b) > target and steps < REFINE_STEPS:
         x, steps = x + solve(b - K @ x), steps + 1
