@@ -159,3 +159,75 @@ def test_the_cholmod_replay_solves_every_recorded_cholesky_and_keeps_the_refusal
         assert [x["refused"] for x in r] == [False, False, True], name
         assert all(x["residual"] <= bounds[name] for x in r[:2]), name
     assert "max residual" in capsys.readouterr().out
+
+
+def test_the_model_check_measures_each_terms_deviation_from_its_quadratic_model():
+    """Along a step d of length h at u0 = x - 1, the quartic's deviation from its quadratic model is
+    its Taylor remainder, sum of u0 (h d)^3 + (h d)^4 / 4, at every fraction of the cap."""
+    from _model_check import ModelCheck, term_deviations
+
+    x, step, cap = np.full(4, 3.0), np.full(4, -1.5), 0.5
+    dev, models, gaps = term_deviations([_Quartic()], x, step, (4, 1), cap)
+    for a in (0.25, 0.5, 1.0):
+        hd = a * cap * -1.5
+        model = 4 * (hd * (2.0**3 + 2.0) + 0.5 * hd**2 * (3 * 2.0**2 + 1))
+        assert models[a] == pytest.approx(model, rel=1e-12)
+        # the energies are O(10) mJ: their difference is exact to about 1e-14 mJ
+        assert dev[("quartic", a)] == pytest.approx(4 * (2.0 * hd**3 + hd**4 / 4), rel=1e-9, abs=1e-12)
+    assert gaps.size == 0
+
+    import hydrojam.fem.newton as newton
+
+    saved, check = newton._line_search, ModelCheck(1)
+    check.install()
+    try:
+        res = minimize([_Quartic()], np.full((4, 1), 3.0), np.ones(4, dtype=bool), 1.0)
+    finally:
+        check.uninstall()
+    assert res.converged and len(check.samples) == res.iterations and newton._line_search is saved
+    assert "the quadratic model along" in check.summary("quartic")
+
+
+def test_the_model_check_splits_the_contact_and_measures_its_gaps():
+    """Two parallel segments at gap g, one moved towards the other by delta: the same pairs at
+    every fraction, no friction, every gap closing by delta / g, and the barrier's deviation that
+    of ipctk's clamped log barrier on squared distances, B(s) = -(s - S)^2 ln(s / S), scaled by
+    the energy at x."""
+    from _model_check import ModelCheck, term_deviations
+
+    from hydrojam.fem.contact import Contact, ContactSettings
+
+    g, dhat, delta = 0.05, 0.1, 0.02
+    X = np.array([[0, 0], [10, 0], [10, g], [0, g]], float)
+    contact = Contact(X, np.array([[0, 1], [2, 3]]), np.array([0, 0, 1, 1]), ContactSettings(dhat=dhat, kappa=1.0))
+    step = np.zeros(8)
+    step[[5, 7]] = -delta
+    dev, models, gaps = term_deviations([contact], X.ravel(), step, X.shape, 1.0)
+    S = dhat**2
+
+    def B(d):
+        return -((d * d - S) ** 2) * np.log(d * d / S)
+
+    def dB(d):  # dB/dd
+        s = d * d
+        return 2 * d * (-2 * (s - S) * np.log(s / S) - (s - S) ** 2 / s)
+
+    def d2B(d):
+        s = d * d
+        Bs = -2 * (s - S) * np.log(s / S) - (s - S) ** 2 / s
+        Bss = -2 * np.log(s / S) - 4 * (s - S) / s + (s - S) ** 2 / s**2
+        return 4 * s * Bss + 2 * Bs
+
+    scale = contact.energy(X) / B(g)
+    for a in (0.25, 0.5, 1.0):
+        h = a * delta
+        expected = scale * (B(g - h) - B(g) + dB(g) * h - 0.5 * d2B(g) * h * h)
+        assert dev[("contact", a)] == pytest.approx(expected, rel=1e-8)
+        assert dev[("barrier, pairs at x", a)] == pytest.approx(expected, rel=1e-8)
+        assert dev[("barrier, new pairs", a)] == 0.0 and abs(dev[("friction", a)]) <= 1e-12 * abs(models[a])
+    np.testing.assert_allclose(gaps, -delta / g, rtol=1e-12)
+
+    check = ModelCheck(1)  # and its summary names the pieces
+    check.samples, check.gaps = [(dev, models)], [gaps]
+    text = check.summary("two segments")
+    assert "barrier, pairs at x" in text and "closing by more than 30 %: 100.00% of 4 pair samples" in text

@@ -1,0 +1,178 @@
+"""How far Newton's quadratic model holds along its own steps, term by term
+(``benchmarks/path.py --model-check N``), read from outside: it wraps
+:func:`hydrojam.fem.newton._line_search` and, at every N-th iteration, before the line search
+runs, evaluates each energy term along the direction d at a = 1/4, 1/2 and 1 of the step cap
+(the contact's CCD cap; 1 where nothing caps it):
+
+- ``deviation`` [mJ]: E_t(x + a d) - E_t(x) - (a g_t.d + a^2/2 d.H_t.d), with the term's exact
+  gradient and Hessian at x, reported relative to the whole model's decrease |sum over the terms
+  of a g_t.d + a^2/2 d.H_t.d|;
+- for the contact term, that deviation split into the barrier of the pairs ipctk found at x
+  (``barrier, pairs at x``: those pairs' barrier evaluated at x + a d, against their own model),
+  the barrier of pairs that are new at x + a d (``barrier, new pairs``) and the lagged friction
+  (``friction``, the rest);
+- for every pair found at x, its gap's relative change (d(x + d) - d(x)) / d(x) along the capped step.
+
+The summary gives the medians and 90 % quantiles, and, among the iterations whose whole deviation
+at the capped step exceeds a quarter of the model's decrease (the model no longer describes the
+step), which piece was the largest. The extra evaluations (one Hessian per term, three energies)
+make a checked iteration about twice as expensive; the path itself is untouched.
+"""
+
+from __future__ import annotations
+
+import collections
+
+import numpy as np
+import scipy.sparse as sp
+
+import hydrojam.fem.newton as newton
+
+FRACTIONS = (0.25, 0.5, 1.0)
+CONTACT_PIECES = ("barrier, pairs at x", "barrier, new pairs", "friction")
+
+
+def _inner(term):
+    return getattr(term, "_term", term)  # inside a TimedTerm (simulate's clocks)
+
+
+def _is_ipc_contact(term) -> bool:
+    inner = _inner(term)
+    return all(hasattr(inner, a) for a in ("_collisions", "_barrier", "_cm", "_vertices"))
+
+
+def term_deviations(terms, x: np.ndarray, step: np.ndarray, shape, cap: float,
+                    fractions=FRACTIONS) -> tuple[dict, dict, np.ndarray]:
+    """Each term's deviation from its quadratic model along ``step`` at ``fractions`` of ``cap``.
+
+    Parameters
+    ----------
+    terms : sequence of EnergyTerm
+    x, step : ndarray
+        The flat state [mm] and Newton direction [mm] (all DOFs, zero on the fixed ones).
+    shape : tuple
+        The nodal shape (n, d) of x.
+    cap : float
+        The step cap (fraction of ``step``) the line search starts from.
+
+    Returns
+    -------
+    deviations : dict
+        ``(name, a) -> deviation [mJ]`` for every term, and for an IPC contact term its pieces
+        (:data:`CONTACT_PIECES`).
+    models : dict
+        ``a -> the whole quadratic model's change [mJ]`` at a x cap.
+    gap_change : ndarray
+        For every contact pair at x: (d(x + cap step) - d(x)) / d(x).
+    """
+    X = x.reshape(shape)
+    dev, models = {}, collections.Counter()
+    gaps = []
+    for t in terms:
+        e0 = t.energy(X)
+        gd = float(t.gradient(X).ravel() @ step)
+        dHd = float(step @ (t.hessian(X) @ step))
+        for a in fractions:
+            h = a * cap
+            model = h * gd + 0.5 * h * h * dHd
+            dev[(t.name, a)] = t.energy((x + h * step).reshape(shape)) - e0 - model
+            models[a] += model
+        if not _is_ipc_contact(t):
+            continue
+        c = _inner(t)
+        V0, col0 = c._collisions(X)
+        b0 = float(c._barrier(col0, c._cm, V0))
+        gb = c._cm.to_full_dof(c._barrier.gradient(col0, c._cm, V0))
+        Hb = sp.csr_matrix(c._cm.to_full_dof(sp.csc_matrix(c._barrier.hessian(col0, c._cm, V0))))
+        bgd, bdHd = float(gb @ step), float(step @ (Hb @ step))
+        for a in fractions:
+            h = a * cap
+            Va = c._vertices((x + h * step).reshape(shape))
+            fixed = float(c._barrier(col0, c._cm, Va))
+            _, cola = c._collisions((x + h * step).reshape(shape))
+            full = float(c._barrier(cola, c._cm, Va))
+            model = h * bgd + 0.5 * h * h * bdHd
+            dev[(CONTACT_PIECES[0], a)] = fixed - b0 - model
+            dev[(CONTACT_PIECES[1], a)] = full - fixed
+            dev[(CONTACT_PIECES[2], a)] = dev[(t.name, a)] - (full - b0 - model)
+        V1 = c._vertices((x + cap * step).reshape(shape))
+        E, F = c._cm.edges, c._cm.faces
+        for group in (col0.vv_collisions, col0.ev_collisions, col0.fv_collisions, col0.ee_collisions):
+            for k in group:
+                d0 = np.sqrt(k.compute_distance(k.dof(V0, E, F)))
+                d1 = np.sqrt(max(k.compute_distance(k.dof(V1, E, F)), 0.0))
+                gaps.append((d1 - d0) / d0)
+    return dev, dict(models), np.array(gaps)
+
+
+class ModelCheck:
+    """Checks the quadratic model at every ``every``-th Newton iteration while installed."""
+
+    def __init__(self, every: int = 5):
+        if every < 1:
+            raise ValueError(f"every must be a positive integer, got {every}")
+        self.every = every
+        self.samples: list[tuple[dict, dict]] = []
+        self.gaps: list[np.ndarray] = []
+        self._calls = 0
+        self._saved = None
+
+    def install(self) -> None:
+        """Wrap newton's line search (undone by :meth:`uninstall`)."""
+        line_search = self._saved = newton._line_search
+
+        def checked(terms, x, E, step, slope, shape, alpha, options, *rest):
+            self._calls += 1
+            if self._calls % self.every == 0:
+                dev, models, gaps = term_deviations(terms, x, step, shape, alpha)
+                self.samples.append((dev, models))
+                self.gaps.append(gaps)
+            return line_search(terms, x, E, step, slope, shape, alpha, options, *rest)
+
+        newton._line_search = checked
+
+    def uninstall(self) -> None:
+        """Put newton's line search back."""
+        if self._saved is not None:
+            newton._line_search = self._saved
+            self._saved = None
+
+    def pieces(self) -> list[str]:
+        """The names checked, terms first, then the contact's pieces."""
+        names = []
+        for dev, _ in self.samples:
+            for name, _a in dev:
+                if name not in names:
+                    names.append(name)
+        return names
+
+    def summary(self, label: str) -> str:
+        """The deviations relative to the model's decrease, and the dominant piece where it fails."""
+        if not self.samples:
+            return f"  {label}: no iterations checked"
+        names = self.pieces()
+        lines = [f"  {label}: the quadratic model along {len(self.samples)} checked Newton steps "
+                 f"(every {self.every}th); |deviation| / |model decrease|, median / 90 % quantile"]
+        for a in FRACTIONS:
+            parts = []
+            for n in names:
+                v = [abs(dev[(n, a)]) / max(abs(m[a]), 1e-300) for dev, m in self.samples if (n, a) in dev]
+                parts.append(f"{n} {np.median(v):.2g} / {np.quantile(v, 0.9):.2g}")
+            lines.append(f"    at {a:g} of the capped step: " + "; ".join(parts))
+        leaves = [n for n in names if n != "contact"] if any(n in CONTACT_PIECES for n in names) else names
+        worst, failed = collections.Counter(), 0
+        for dev, m in self.samples:
+            total = sum(dev[(n, 1.0)] for n in leaves if (n, 1.0) in dev)
+            if abs(total) > 0.25 * abs(m[1.0]):
+                failed += 1
+                worst[max((n for n in leaves if (n, 1.0) in dev), key=lambda n: abs(dev[(n, 1.0)]))] += 1
+        lines.append(f"    the model off by more than a quarter at the capped step in {failed} of "
+                     f"{len(self.samples)}; the largest piece there: "
+                     + (", ".join(f"{n} {k}" for n, k in worst.most_common()) or "-"))
+        gaps = np.concatenate(self.gaps) if self.gaps else np.zeros(0)
+        if gaps.size:
+            lines.append(f"    contact pairs' gap change over the capped step, |(d1 - d0) / d0|: median "
+                         f"{np.median(np.abs(gaps)):.2g}, 90 % {np.quantile(np.abs(gaps), 0.9):.2g}; closing by more "
+                         f"than 30 %: {np.mean(gaps < -0.3):.2%} of {gaps.size} pair samples "
+                         f"({np.sum(gaps < -0.3) / len(self.samples):.1f} a checked step)")
+        return "\n".join(lines)
