@@ -275,8 +275,8 @@ def test_conjugate_gradients_solve_the_full_system_preconditioned_by_a_nearby_on
     solver.solve(M, -g)
     options = NewtonOptions()
     r = float(np.linalg.norm(g))
-    x, curved = _conjugate_gradients(K, g, r, solver, options.krylov_iterations, options)
-    assert x is not None and not curved
+    x, negative = _conjugate_gradients(K, g, r, solver, options.krylov_iterations, options)
+    assert x is not None and negative is None
     assert np.linalg.norm(K @ x + g) <= options.linear_residual * r
     exact = np.linalg.solve(K.toarray(), -g)
     assert np.linalg.norm(x - exact) <= options.linear_residual * r / 1.0
@@ -287,7 +287,7 @@ def test_conjugate_gradients_refuse_a_system_with_negative_curvature():
     """K = M - c w w^T with c w^T M^-1 w > 1 has one negative eigenvalue, and the preconditioned
     Krylov space holds it after two iterations: K's restriction to the conjugate directions is
     diagonal, so by Sylvester's law one of their curvatures p.K.p is negative, and the conjugate
-    gradients return no step, and say that they met the curvature, instead of the saddle's
+    gradients return no step, and the direction of that curvature, instead of the saddle's
     Newton step."""
     from hydrojam.fem.linsolve import LinearSolver
     from hydrojam.fem.newton import NewtonOptions, _conjugate_gradients
@@ -302,8 +302,9 @@ def test_conjugate_gradients_refuse_a_system_with_negative_curvature():
     solver = LinearSolver("scipy")
     solver.solve(M, -g)
     options = NewtonOptions()
-    assert _conjugate_gradients(K, g, float(np.linalg.norm(g)), solver, options.detect_iterations,
-                                options) == (None, True)
+    x, p = _conjugate_gradients(K, g, float(np.linalg.norm(g)), solver, options.detect_iterations, options)
+    assert x is None and p is not None
+    assert float(p @ (K @ p)) <= 0
 
 
 class _SymmetricQuadratic(EnergyTerm):
@@ -365,8 +366,8 @@ def test_krylov_detect_takes_the_full_step_where_its_conjugate_gradients_meet_no
     resolves = []
     resolve = solver.resolve
     solver.resolve = lambda b, **kw: resolves.append(1) or resolve(b, **kw)
-    dx, slope, tau, projected = _direction(terms, xs, hessians, Hff, abs(Hff.diagonal()), g, r, 0.0, fidx,
-                                           solver, options, full_first=full_first)
+    dx, slope, tau, projected, _ = _direction(terms, xs, hessians, Hff, abs(Hff.diagonal()), g, r, 0.0, fidx,
+                                              solver, options, full_first=full_first)
     full_definite = np.linalg.eigvalsh(A + B).min() > 0
     if full_first and full_definite:
         assert (solver.calls, len(resolves)) == (1, 0)
@@ -467,3 +468,102 @@ def test_invalid_blas_thread_counts_are_refused_by_name(monkeypatch, value):
     monkeypatch.setenv("HYDROJAM_BLAS_THREADS", value)
     with pytest.raises(ValueError, match="HYDROJAM_BLAS_THREADS must be a positive integer"):
         _minimise(_Quadratic(np.zeros(3), np.full(3, 5.0)))
+
+
+class _Spring(EnergyTerm):
+    """E = |x|^2 / 2 [mJ]: unit stiffness on every DOF."""
+
+    name = "spring"
+
+    def energy(self, x):
+        return 0.5 * float(x.ravel() @ x.ravel())
+
+    def gradient(self, x):
+        return x.ravel().copy()
+
+    def hessian(self, x, project=False):
+        return sp.identity(x.size, format="csr")
+
+    def force_flux(self, x, gradient=None):
+        return np.ones(x.size)
+
+
+class _Softening(EnergyTerm):
+    """E = -c u^2 / 2 + u^4 / 4 [mJ] on the first DOF u, with ``fallback_projection`` (as contact
+    is): its projected Hessian clips -c + 3 u^2 at 0. Beside :class:`_Spring` (c = 2) the total
+    along u is -u^2 / 2 + u^4 / 4: a hump at u = 0, minima at u = +-1. Newton's step on the
+    projected K (curvature 1 along u) takes u to u + u - u^3, about doubling it, while the full
+    K's curvature there is -1 + 3 u^2 < 0. An optional wall: energy inf beyond u = ``wall``,
+    whose ``max_step`` is the exact fraction of a step that reaches it."""
+
+    name = "softening"
+    fallback_projection = True
+    c = 2.0
+
+    def __init__(self, wall=np.inf):
+        self.wall = wall
+
+    def energy(self, x):
+        u = x.ravel()[0]
+        return np.inf if u > self.wall else -self.c * u**2 / 2 + u**4 / 4
+
+    def gradient(self, x):
+        g = np.zeros(x.size)
+        g[0] = -self.c * x.ravel()[0] + x.ravel()[0] ** 3
+        return g
+
+    def hessian(self, x, project=False):
+        h = -self.c + 3 * x.ravel()[0] ** 2
+        H = np.zeros((x.size, x.size))
+        H[0, 0] = max(h, 0.0) if project else h
+        return sp.csr_matrix(H)
+
+    def max_step(self, x, dx):
+        u, du = x.ravel()[0], dx.ravel()[0]
+        return 1.0 if du <= 0 or u + du <= self.wall else (self.wall - u) / du
+
+    def force_flux(self, x, gradient=None):
+        return np.ones(x.size)
+
+
+@pytest.mark.skipif(not _pardiso_available(), reason="the inertia comes from PARDISO")
+def test_the_curvature_step_travels_the_negative_curvature_that_the_projection_hides():
+    """From u = 1e-3 on the hump of spring + softening, "krylov_detect" meets the full K's negative
+    curvature and steps on the projected K, which about doubles u an iteration: at least
+    log2(0.5 / 1e-3) ~ 9 iterations before u nears the minimum. With ``curvature_step`` each
+    iteration goes on along the negative-curvature direction, doubling while the energy falls,
+    so it gets there in fewer than half as many. Both end in the minimum u = 1, v = 0, within ten
+    times the residual tolerance over the curvature there (2)."""
+    from hydrojam.fem.linsolve import LinearSolver
+    from hydrojam.fem.newton import NewtonOptions, minimize
+
+    x0 = np.array([[1e-3], [0.3]])
+    runs = {}
+    for step in (0.0, 1.0):
+        options = NewtonOptions(max_iter=100, definite=True, fallback_start="krylov_detect", curvature_step=step)
+        res = minimize([_Spring(), _Softening()], x0, np.ones(2, dtype=bool), 1.0, options, LinearSolver("pardiso"))
+        assert res.converged, res.message
+        assert abs(res.x[0, 0] - 1.0) <= 10 * 1e-6 * np.sqrt(2) / 2.0 and abs(res.x[1, 0]) <= 10 * 1e-6 * np.sqrt(2)
+        runs[step] = res.iterations
+    assert runs[0.0] >= 9
+    assert runs[1.0] < runs[0.0] / 2
+
+
+def test_the_curvature_step_doubles_while_the_energy_falls_and_stays_within_the_cap():
+    """From u = 0.1 after an accepted step of 0.05 along u: trials at 1, 2, 4, 8 times 0.05, where
+    -u^2 / 2 + u^4 / 4 falls all the way to u = 0.5 (no wall) and, with a wall at u = 0.25 that
+    caps the longest trial at 0.15 / 0.4 of it, the last trial within the cap is u = 0.2. The sign
+    descends whichever way p points."""
+    from hydrojam.fem.newton import NewtonOptions, _curvature_step
+
+    x = np.array([0.1, 0.0])
+    g = np.array([-0.1 + 0.1**3])  # the free gradient at the iterate, u only (v fixed)
+    options = NewtonOptions(curvature_step=1.0, curvature_doublings=3)
+    for wall, expected in ((np.inf, 0.5), (0.25, 0.2)):
+        for sign in (1.0, -1.0):
+            terms = [_Spring(), _Softening(wall)]
+            E0 = sum(t.energy(x.reshape(2, 1)) for t in terms)
+            xn, En = _curvature_step(terms, x, E0, np.array([sign * 3.0]), g, np.array([0]), np.array([0.05, 0.0]),
+                                     (2, 1), options)
+            assert xn[0] == pytest.approx(expected, abs=1e-12) and xn[1] == 0.0
+            assert En == pytest.approx(-expected**2 / 2 + expected**4 / 4, rel=1e-12) and En < E0

@@ -405,8 +405,8 @@ def test_a_retried_direction_reassembles_only_the_projected_terms():
     g = np.array([0.0, 1.0, -0.5, 0.0])  # the exact Hessian's step climbs along (0, 1, -1, 0)
     calls.clear()
     opts = NewtonOptions()
-    dx, slope, _, projected = _direction(terms, x, hessians, Hff, np.abs(Hff.diagonal()), g, np.linalg.norm(g),
-                                         0.0, fidx, LinearSolver("scipy"), opts)
+    dx, slope, _, projected, _ = _direction(terms, x, hessians, Hff, np.abs(Hff.diagonal()), g, np.linalg.norm(g),
+                                            0.0, fidx, LinearSolver("scipy"), opts)
     assert projected
     assert calls == [("contact", True)]
     assert slope < 0

@@ -137,6 +137,17 @@ class NewtonOptions:
     factorisation (a Cholesky's refusal, an LDL^T's inertia) decides whether it is definite.
     Negative curvature shows within a few iterations or not at all, while converging on a
     definite K takes several more."""
+    curvature_step: float = 0.0
+    """With ``fallback_start`` "krylov" or "krylov_detect": where the conjugate gradients met a
+    direction p of negative curvature of the full K (p.K.p <= 0), the state after the line search
+    is moved further along p, the sign that descends at the iterate, from a largest nodal move of
+    ``curvature_step`` times the accepted step's, doubled while the energy falls, at most
+    ``curvature_doublings`` times and within the terms' step cap (one CCD over the longest): the
+    lowest state is kept. The projected K's step cannot see that curvature; along it the energy
+    falls further than any model the projection leaves. 0: off (the actuator's path: 1)."""
+    curvature_doublings: int = 3
+    """Doublings at most of the negative-curvature step (``curvature_step``): up to 2**n times its
+    first length."""
 
 
 class NewtonStatus(enum.Enum):
@@ -266,7 +277,8 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
     K = H + tau diag|H| + eps mean|diag H| I. ``hessians``: every term's Hessian at xs, as summed
     into H (the fallback re-assembles only the terms that ask for projection; ``projected``: they
     already are). Returns (dx or None if every attempt failed, slope g.dx, tau used, whether the
-    fallback terms were projected in the accepted K). ``full_first`` ("krylov_detect" only; the
+    fallback terms were projected in the accepted K, a direction of the full K's negative
+    curvature that the conjugate gradients met, or None). ``full_first`` ("krylov_detect" only; the
     last iteration took the full K's step): the full K at ``lm`` is factorised first, and its
     solution taken where it is definite; otherwise the projected K's step follows without the
     conjugate gradients, which would only find again that the full K is not definite. Either way
@@ -294,8 +306,8 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
         K = Hff + sp.diags(lm * hdiag + eps, format="csr")
         cand, full_indefinite = _definite_solution(K, g, r, reach, solver, options)
         if cand is not None:
-            return cand, float(g @ cand), lm, False
-    tau, dx, slope, Hfull = lm, None, 0.0, Hff
+            return cand, float(g @ cand), lm, False, None
+    tau, dx, slope, Hfull, negative = lm, None, 0.0, Hff, None
     for attempt in range(options.damping_attempts):
         if (attempt == 1 or krylov) and adaptive and fallback and not projected:
             # the barrier's own negative curvature (b'(d) times the curvature of the distance)
@@ -320,13 +332,13 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
         # projected K needed more damping, the full one at lm is indefinite too)
         K = Hfull + sp.diags(tau * hdiag + eps, format="csr")
         if detect:
-            _, curved = _conjugate_gradients(K, g, r, solver, options.detect_iterations, options)
-            full = None if curved else _definite_solution(K, g, r, reach, solver, options)[0]
+            _, negative = _conjugate_gradients(K, g, r, solver, options.detect_iterations, options)
+            full = None if negative is not None else _definite_solution(K, g, r, reach, solver, options)[0]
         else:
-            full, _ = _conjugate_gradients(K, g, r, solver, options.krylov_iterations, options)
+            full, negative = _conjugate_gradients(K, g, r, solver, options.krylov_iterations, options)
         if full is not None:
             dx, slope, projected = full, float(g @ full), False
-    return dx, slope, tau, projected
+    return dx, slope, tau, projected, negative
 
 
 def _accurate_solution(K, g, r, reach, solver, options: NewtonOptions):
@@ -357,10 +369,10 @@ def _definite_solution(K, g, r, reach, solver, options: NewtonOptions):
 
 def _conjugate_gradients(K, g, r, solver, steps: int, options: NewtonOptions):
     """K dx = -g by at most ``steps`` conjugate-gradient iterations preconditioned with the
-    solver's last factorisation (a positive definite K nearby): (dx, curved). dx once
-    ||K dx + g|| <= linear_residual x r, else None; curved where a search direction has curvature
-    p.K.p <= 0 (K is not positive definite there; dx is None then). Every iterate from dx = 0
-    descends (g.dx < 0)."""
+    solver's last factorisation (a positive definite K nearby): (dx, p). dx once
+    ||K dx + g|| <= linear_residual x r, else None; p the first search direction with curvature
+    p.K.p <= 0 (K is not positive definite there; dx is None then), else None. Every iterate
+    from dx = 0 descends (g.dx < 0)."""
     x = np.zeros_like(g)
     res = -g
     z = solver.resolve(res, approximate=True)
@@ -369,16 +381,16 @@ def _conjugate_gradients(K, g, r, solver, steps: int, options: NewtonOptions):
         Kp = K @ p
         curvature = float(p @ Kp)
         if curvature <= 0:
-            return None, True
+            return None, p
         a = rz / curvature
         x = x + a * p
         res = res - a * Kp
         if np.linalg.norm(res) <= options.linear_residual * r:
-            return x, False
+            return x, None
         z = solver.resolve(res, approximate=True)
         rz, rz_old = float(res @ z), rz
         p = z + (rz / rz_old) * p
-    return None, False
+    return None, None
 
 
 def _line_search(terms, x, E, step, slope, shape, alpha, options: NewtonOptions, residual=None):
@@ -438,6 +450,38 @@ def _full_step_by_residual(terms, x, E, step, slope, shape, cap, r, tol, fidx, o
         return 1.0, xn, En
     rn = _residual_norm(terms, xn.reshape(shape), fidx)
     return (1.0, xn, En) if rn <= options.residual_acceptance * r else (None, x, E)
+
+
+def _curvature_step(terms, x, E, p, g, fidx, accepted, shape, options: NewtonOptions):
+    """(x, E) moved from the accepted state x along the free direction ``p`` of the full K's
+    negative curvature (:attr:`NewtonOptions.curvature_step`): the sign with g.p <= 0 (g the
+    free gradient at the iterate), a first largest nodal move of ``curvature_step`` times that of
+    the accepted step (all DOFs), doubled while the energy falls, within the terms' cap over the
+    longest trial (every trial segment lies on it, so every state kept is admissible and
+    collision-free). The cap is computed only once the first trial has lowered the energy (most
+    do not). The given (x, E) where no trial within the cap lowers the energy."""
+    d = np.zeros_like(x)
+    d[fidx] = p if float(g @ p) <= 0 else -p
+    size = float(np.sqrt((d.reshape(shape) ** 2).sum(axis=1)).max())
+    length = options.curvature_step * float(np.sqrt((accepted.reshape(shape) ** 2).sum(axis=1)).max())
+    if size == 0 or length <= 0:
+        return x, E
+    d *= length / size
+    first = sum_energy(terms, (x + d).reshape(shape))
+    if not first < E:  # inf and nan included: most trials end here, before any CCD
+        return x, E
+    longest = 2.0**options.curvature_doublings
+    cap = longest * min([1.0] + [t.max_step(x.reshape(shape), (longest * d).reshape(shape)) for t in terms])
+    if cap < 1.0:
+        return x, E
+    best, t = (x + d, first), 2.0
+    while t <= cap:
+        xn = x + t * d
+        En = sum_energy(terms, xn.reshape(shape))
+        if not En < best[1]:
+            break
+        best, t = (xn, En), 2 * t
+    return best
 
 
 def _marquardt_update(lm: float, alpha: float, options: NewtonOptions) -> float:
@@ -604,8 +648,8 @@ def minimize(
         tm.assembly += time.perf_counter() - t0
         t0 = time.perf_counter()
         hdiag = abs(Hff.diagonal())
-        dx, slope, tau, projected = _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options,
-                                               projected, full_first)
+        dx, slope, tau, projected, negative = _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver,
+                                                         options, projected, full_first)
         tm.linear_solve += time.perf_counter() - t0
         if dx is None:
             return result(NewtonStatus.SINGULAR, it, r)
@@ -633,6 +677,10 @@ def minimize(
                 # Newton direction: the energy is at its round-off floor, not stuck
                 return result(NewtonStatus.CONVERGED_NO_DESCENT, it, r)
             return result(NewtonStatus.LINE_SEARCH_FAILED, it, r)
+        if negative is not None and options.curvature_step > 0:
+            t0 = time.perf_counter()
+            xn, En = _curvature_step(terms, xn, En, negative, g, fidx, alpha * step, shape, options)
+            tm.line_search += time.perf_counter() - t0
         x, E = xn, En
         lm = _marquardt_update(lm, alpha, options)
     return result(NewtonStatus.MAX_ITERATIONS, options.max_iter, residuals[-1],
