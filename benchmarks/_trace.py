@@ -13,7 +13,9 @@ Marquardt update) and the linear solver, and records for every iteration
   analysed a new sparsity pattern, ``solves``: the factorisations the direction took,
   ``negative``: the negative eigenvalues of its first K (1 where a Cholesky factorisation refused
   it: at least one), ``substitutions``: solves on a factorisation already made, ``projected``:
-  whether the contact Hessian was projected in the accepted K.
+  whether the contact Hessian was projected in the accepted K, ``curvature`` [mm]: the largest
+  nodal move of the step along the full K's negative curvature after the line search
+  (``NewtonOptions.curvature_step``; 0 where none was taken).
 
 The summary says where the iterations went: capped steps (TOI locking), line-search cuts, and
 the tail (iterations within 100x of the tolerance's residual, chasing near-neutral modes).
@@ -29,7 +31,7 @@ import hydrojam.fem.newton as newton
 from hydrojam.fem.linsolve import LinearSolver, NotPositiveDefinite
 
 FIELDS = ("step", "residual", "tolerance", "tau", "cap", "alpha", "trials", "dE", "step_max", "stabilisation", "pairs",
-          "analysis", "solves", "negative", "substitutions", "projected")
+          "analysis", "solves", "negative", "substitutions", "projected", "curvature")
 
 
 class IterationTrace:
@@ -47,10 +49,10 @@ class IterationTrace:
 
     def install(self) -> None:
         """Wrap newton's helpers and the linear solver (undone by :meth:`uninstall`)."""
-        direction, line_search, update, solve, resolve, tolerance = (
+        direction, line_search, update, solve, resolve, tolerance, curvature = (
             newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
-            LinearSolver.resolve, newton._tolerance)
-        self._saved = direction, line_search, update, solve, resolve, tolerance
+            LinearSolver.resolve, newton._tolerance, newton._curvature_step)
+        self._saved = direction, line_search, update, solve, resolve, tolerance, curvature
         row = self._row
         last_tolerance = [float("nan")]
 
@@ -90,7 +92,13 @@ class IterationTrace:
             row["step_max"] = float(np.abs(out[0] * step).max())
             return out
 
+        def traced_curvature(terms, x, E, p, g, fidx, accepted, shape, options):
+            out = curvature(terms, x, E, p, g, fidx, accepted, shape, options)
+            row["curvature"] = float(np.sqrt(((out[0] - x).reshape(shape) ** 2).sum(axis=1)).max())
+            return out
+
         def traced_update(lm, alpha, options):
+            row.setdefault("curvature", 0.0)
             row.setdefault("cap", 1.0)
             row["alpha"] = alpha
             self.rows.append({k: row.get(k, "") for k in FIELDS})
@@ -115,15 +123,15 @@ class IterationTrace:
             row["substitutions"] = row.get("substitutions", 0) + 1
             return resolve(solver, b, **kw)
 
-        newton._direction, newton._line_search, newton._marquardt_update, newton._tolerance = (
-            traced_direction, traced_line_search, traced_update, traced_tolerance)
+        newton._direction, newton._line_search, newton._marquardt_update, newton._tolerance, newton._curvature_step = (
+            traced_direction, traced_line_search, traced_update, traced_tolerance, traced_curvature)
         LinearSolver.solve, LinearSolver.resolve = traced_solve, traced_resolve
 
     def uninstall(self) -> None:
         """Put newton's helpers and the linear solver back."""
         if self._saved is not None:
             (newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
-             LinearSolver.resolve, newton._tolerance) = self._saved
+             LinearSolver.resolve, newton._tolerance, newton._curvature_step) = self._saved
             self._saved = None
 
     def write(self, path: str) -> None:
@@ -155,4 +163,5 @@ class IterationTrace:
                 f"new patterns {analyses / n:.0%} of iterations; factorisations per iteration "
                 f"{sum(int(r['solves'] or 0) for r in self.rows) / n:.2f}, substitutions "
                 f"{sum(int(r['substitutions'] or 0) for r in self.rows) / n:.2f}; contact projected in "
-                f"{np.mean([r['projected'] == 1 for r in self.rows]):.0%} of the directions")
+                f"{np.mean([r['projected'] == 1 for r in self.rows]):.0%} of the directions; a step along the "
+                f"negative curvature taken in {np.mean([float(r['curvature'] or 0) > 0 for r in self.rows]):.0%}")

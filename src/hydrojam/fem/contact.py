@@ -186,6 +186,10 @@ class Contact(EnergyTerm):
     """
 
     fallback_projection = True
+    cached_states = 2
+    """Collision sets kept for the most recent states: the accepted state's survives one trial
+    elsewhere (a rejected line-search or curvature-step trial) before the next iteration asks for
+    it again."""
 
     def __init__(self, X: np.ndarray, facets: np.ndarray, components: np.ndarray, settings: ContactSettings,
                  name: str = "contact"):
@@ -211,8 +215,7 @@ class Contact(EnergyTerm):
             self._ccd = ipctk.TightInclusionCCD(
                 1e-6 if settings.ccd_tolerance is None else float(settings.ccd_tolerance),
                 10_000_000 if settings.ccd_max_iterations is None else int(settings.ccd_max_iterations))
-        self._cache_key = None
-        self._cache = None
+        self._cache: dict = {}
         self._friction = None
         self._friction_potential = None
         if settings.friction > 0 or settings.pair_friction:
@@ -225,7 +228,7 @@ class Contact(EnergyTerm):
         starts from the friction lag where another run on it ended."""
         other = object.__new__(type(self))
         other.__dict__.update(self.__dict__)
-        other._cache_key, other._cache, other._friction = None, None, None
+        other._cache, other._friction = {}, None
         return other
 
     # -- collision sets ------------------------------------------------------------------------
@@ -236,12 +239,16 @@ class Contact(EnergyTerm):
     def _collisions(self, x: np.ndarray):
         V = self._vertices(x)
         key = V.tobytes()
-        if key != self._cache_key:
+        hit = self._cache.pop(key, None)
+        if hit is None:
             col = ipctk.NormalCollisions()
             col.use_area_weighting = True
             col.build(self._cm, V, self.settings.dhat)
-            self._cache_key, self._cache = key, (V, col)
-        return self._cache
+            hit = (V, col)
+        self._cache[key] = hit  # the newest last
+        while len(self._cache) > self.cached_states:
+            del self._cache[next(iter(self._cache))]
+        return hit
 
     def begin_step(self, x: np.ndarray) -> None:
         """Freeze normal forces and tangent bases for friction at the start of a load step."""
