@@ -38,12 +38,9 @@ STABILISATION = 0.01
 #: comes in, from where the blocks stopped (docs/solver.md, "Undamped first").
 #: A step the energy's round-off cannot judge must lower the residual (``residual_search``):
 #: long chambers' rounds cycled between states just above the tolerance (docs/solver.md, "Newton").
-#: Where the full K shows negative curvature, the state goes on along it, at most twice the
-#: step's move (``curvature_step``): fewer iterations, the same distributions; 8x moved the
-#: default designs' tips (docs/solver.md, "Choices").
 ACTUATOR_PATH = PathOptions(ds0=0.05, ds_min=1e-4, ds_max=0.1, easy_iterations=30,
                             newton=NewtonOptions(max_iter=200, definite=True, fallback_start="krylov_detect",
-                                                 residual_search=True, curvature_step=1.0, curvature_doublings=1),
+                                                 residual_search=True),
                             damping_start=0.0,
                             damping_relax_after=1, undamped_blocks=3, damped_from_blocks=True)
 
