@@ -94,7 +94,7 @@ class IterationTrace:
 
         def traced_curvature(terms, x, E, p, g, fidx, accepted, shape, options):
             out = curvature(terms, x, E, p, g, fidx, accepted, shape, options)
-            row["curvature"] = float(np.sqrt(((out[0] - x).reshape(shape) ** 2).sum(axis=1)).max())
+            row["curvature"] = newton.largest_move(out[0] - x, shape)
             return out
 
         def traced_update(lm, alpha, options):

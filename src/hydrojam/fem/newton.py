@@ -453,6 +453,11 @@ def _full_step_by_residual(terms, x, E, step, slope, shape, cap, r, tol, fidx, o
     return (1.0, xn, En) if rn <= options.residual_acceptance * r else (None, x, E)
 
 
+def largest_move(dx: np.ndarray, shape) -> float:
+    """The largest nodal move [mm] of a flat displacement ``dx`` over nodes of ``shape`` (n, d)."""
+    return float(np.linalg.norm(dx.reshape(shape), axis=1).max())
+
+
 def _curvature_step(terms, x, E, p, g, fidx, accepted, shape, options: NewtonOptions):
     """(x, E) moved from the accepted state x along the free direction ``p`` of the full K's
     negative curvature (:attr:`NewtonOptions.curvature_step`): the sign with g.p <= 0 (g the
@@ -463,8 +468,8 @@ def _curvature_step(terms, x, E, p, g, fidx, accepted, shape, options: NewtonOpt
     do not). The given (x, E) where no trial within the cap lowers the energy."""
     d = np.zeros_like(x)
     d[fidx] = p if float(g @ p) <= 0 else -p
-    size = float(np.sqrt((d.reshape(shape) ** 2).sum(axis=1)).max())
-    length = options.curvature_step * float(np.sqrt((accepted.reshape(shape) ** 2).sum(axis=1)).max())
+    size = largest_move(d, shape)
+    length = options.curvature_step * largest_move(accepted, shape)
     if size == 0 or length <= 0:
         return x, E
     d *= length / size
