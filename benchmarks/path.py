@@ -64,8 +64,8 @@ VARIANTS = {
     "main": {},
     # a step whose energy change is within the energy's round-off of Armijo's demand is taken on the energy alone
     "no_residual_search": {"options": {"newton": {"residual_search": False}}},
-    "curvature_step": {"options": {"newton": {"curvature_step": 1.0}}},
-    "curvature_step_2x": {"options": {"newton": {"curvature_step": 1.0, "curvature_doublings": 1}}},
+    "no_curvature_step": {"options": {"newton": {"curvature_step": 0.0}}},
+    "curvature_step_8x": {"options": {"newton": {"curvature_doublings": 3}}},
     # the path before every state was an equilibrium: damped from the start, released once at s = 1
     "stabilised_path": {"options": {"damping_start": 1.0, "extrapolate": False,
                                     "release": ReleaseOptions(each_step=False)}},

@@ -220,24 +220,31 @@ def _run(*extra):
 
 @pytest.fixture(scope="module")
 def untimed():
-    """The untimed run to 275 K and the final angle's path dependence: the larger of its
-    difference from the run on the "linear" path and 1 % of the angle. The frictionless particle
-    rolls along a near-neutral mode, so the equilibria that different paths reach spread over
-    about 1 % of the angle (measured: 43.97 deg untimed, 44.35 after a cycle, 44.85 after a
-    step in time), where two untimed paths can happen to land 0.006 deg apart."""
+    """The untimed run to 275 K and its final state's path dependence. The angle's: the larger
+    of its difference from the run on the "linear" path and 1 % of the angle. The frictionless
+    particle rolls along a near-neutral mode, so the equilibria that different paths reach spread
+    over about 1 % of the angle (measured: 44.44 deg untimed, 44.74 on the linear path, 43.95
+    after a cycle, 44.74 after a step in time), where two untimed paths can land far closer.
+    The mean swelling ratio's: the larger of the two paths' difference and 1e-4 of the ratio.
+    The jammed equilibria press the particles differently, and the area follows the pressure
+    (measured over eight paths to 275 K, with and without the negative-curvature step:
+    6.6068-6.6075, 1.1e-4 of the ratio; the two untimed paths 2e-5 or 9e-5 apart)."""
     sw, lin = _run(), _run("stimulus.path=linear")
     assert sw.converged and lin.converged
-    a = sw.metrics["bending_angle_deg"]
-    return sw, max(abs(a - lin.metrics["bending_angle_deg"]), 0.01 * abs(a))
+    a, r = sw.metrics["bending_angle_deg"], sw.metrics["mean_swelling_ratio"]
+    angle = max(abs(a - lin.metrics["bending_angle_deg"]), 0.01 * abs(a))
+    area = max(abs(r - lin.metrics["mean_swelling_ratio"]), 1e-4 * r)
+    return sw, angle, area
 
 
 def test_a_step_bends_monotonically_towards_the_untimed_final_state(untimed, tmp_path):
     """300 -> 275 K in 60 s, held for about 230 time constants: theta(t) rises monotonically
     (each state's angle at least the previous one's less 1e-4 of the angle: the wander the
-    solver's tolerance leaves along a rolling particle's near-neutral mode) and ends where the untimed run ends: the particles' area to the solver's tolerance x
-    the area's scale, the angle within 3x the path dependence of the untimed final angle (the
-    timed path is a third path to the same stimulus). history.csv carries the time."""
-    ref, spread = untimed
+    solver's tolerance leaves along a rolling particle's near-neutral mode) and ends where the
+    untimed run ends: the angle and the particles' area within 3x the untimed final state's path
+    dependence (the timed path is a third path to the same stimulus). history.csv carries the
+    time."""
+    ref, spread, area = untimed
     res = _run("stimulus.schedule=[[0, 300], [60, 275], [1e6, 275]]")
     assert res.converged and res.metrics["stabilisation_released"], res.message
     theta = np.array([st.metrics["bending_angle_deg"] for st in res.states])
@@ -253,9 +260,9 @@ def test_a_step_bends_monotonically_towards_the_untimed_final_state(untimed, tmp
     m, m0 = res.metrics, ref.metrics
     assert m["mu_kT"] == pytest.approx(0.0, abs=1e-9) and m["temperature_K"] == 275.0
     assert abs(final - m0["bending_angle_deg"]) <= 3 * spread, (final, m0["bending_angle_deg"], spread)
-    # the area: the solver's tolerance is on forces; 1e-4 relative holds the path dependence of
-    # the contact gaps (dhat 0.08 mm on a 16 mm particle) times the barrier's share of the area
-    assert m["mean_swelling_ratio"] == pytest.approx(m0["mean_swelling_ratio"], rel=1e-4)
+    # a real error (water left in or out of the particles) moves the area by orders more: the
+    # step from 300 to 275 K swells the particles 6.6-fold
+    assert abs(m["mean_swelling_ratio"] - m0["mean_swelling_ratio"]) <= 3 * area
     tau = m["particle_time_constant_s"]
     assert 0 < m["time_to_90_percent_angle_s"] < 10 * tau and m["max_bending_angle_deg"] == pytest.approx(final)
     assert 0 < m["swelling_time_to_90_percent_s"] < 10 * tau
@@ -269,7 +276,7 @@ def test_a_step_bends_monotonically_towards_the_untimed_final_state(untimed, tmp
 
 
 def test_untimed_runs_have_no_time(untimed, tmp_path):
-    ref, _ = untimed
+    ref = untimed[0]
     m = ref.metrics
     for key in ("time_s", "particle_time_constant_s", "time_to_90_percent_angle_s", "swelling_time_to_90_percent_s",
                 "max_bending_angle_deg",
@@ -289,7 +296,7 @@ def test_a_cycle_through_the_transition_returns(untimed):
     reported. The collapse on heating takes the kinetics' time, not the ramp's (the particles
     keep their water within a step: the "volume" term): 0.05 tau after the ramp the angle keeps
     more than half of its value at the start of heating, 0.25 tau after it more than a tenth."""
-    ref, spread = untimed
+    ref, spread, _ = untimed
     res = _run("stimulus.schedule=[[0, 275], [30000, 275], [30060, 310], [60000, 310], [60060, 275], [1e6, 275]]")
     assert res.converged, res.message
     m = res.metrics

@@ -144,8 +144,8 @@ class NewtonOptions:
     ``curvature_step`` times the accepted step's, doubled while the energy falls, at most
     ``curvature_doublings`` times and within the terms' step cap (one CCD over the longest): the
     lowest state is kept. The projected K's step cannot see that curvature; along it the energy
-    falls further than any model the projection leaves. 0: off, also in the actuator's path, whose
-    answers it moves (docs/solver.md, "Choices")."""
+    falls further than any model the projection leaves. 0: off (the actuator's path: 1, with one
+    doubling)."""
     curvature_doublings: int = 3
     """Doublings at most of the negative-curvature step (``curvature_step``): up to 2**n times its
     first length."""
