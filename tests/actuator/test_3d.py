@@ -104,6 +104,24 @@ def test_the_half_model_holds_the_cut_and_leaves_it_out_of_contact(half):
     assert np.allclose(half.mesh.points[half.centreline_nodes][:, :2], [X_MID, 0.0], atol=1e-9)
 
 
+def test_the_walls_outer_faces_are_in_the_collision_mesh_and_may_meet_themselves(half):
+    """A chamber long enough curls past a full turn onto itself: the walls (membrane and
+    strain-limit layer, one component) are self-contacting, and their collision triangles are
+    the cavity's five walls (3 W^2) and the outer faces by hand (the two side faces, the far face
+    y = Y_OUT and the free end; not the clamp, not the cut), to the round-off of flat faces."""
+    from hydrojam.actuator.model import WALL_COMPONENT
+
+    C = half.contact
+    assert C.self_contact and C.self_contacts(C.X) == 0
+    faces = np.asarray(C._cm.faces)
+    V = C.X[C.vertex_ids]
+    on_wall = (C.components[faces] == WALL_COMPONENT).all(axis=1)
+    tri = V[faces[on_wall]]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+    outer = 2 * Y_OUT * L + (W + 2 * T0 + H) * L + (W + 2 * T0 + H) * Y_OUT
+    assert area == pytest.approx(3 * W * W + outer, rel=1e-9)
+
+
 def test_the_full_model_is_two_glued_halves(full, half):
     """The whole actuator: twice the half's volumes, a mid-plane of nodes on y = 0 and no
     symmetry condition."""

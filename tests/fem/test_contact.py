@@ -9,7 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 import pytest
 
-from hydrojam.fem.meshing import ball, box, disks, half_disk, quarter_hemisphere, rectangle
+from hydrojam.fem.meshing import annulus, ball, box, disks, half_disk, quarter_hemisphere, rectangle
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.contact import Contact, ContactSettings, collision_primitives, default_settings
 from hydrojam.fem.elements import element_for_meshio_type
@@ -373,3 +373,113 @@ def test_the_pattern_reach_defaults_to_half_dhat_and_refuses_a_negative_one():
     assert ContactSettings(dhat=0.02, kappa=1.0, pattern_reach=0.3).reach == 0.3
     with pytest.raises(ValueError, match="pattern_reach"):
         ContactSettings(dhat=0.02, kappa=1.0, pattern_reach=-1.0)
+
+
+# ------------------------------------------------------------------------------------------------
+# self-contact: one component's boundary meeting itself
+
+
+def _blocks(dim, gap):
+    """Two unit blocks, the second above the first across ``gap`` [mm], and their node labels."""
+    if dim == 2:
+        parts = {"a": rectangle(1.0, 1.0, 0.25), "b": rectangle(1.0, 1.0, 0.25, origin=(0.0, 1.0 + gap))}
+    else:
+        parts = {"a": box(1.0, 1.0, 1.0, 0.5), "b": box(1.0, 1.0, 1.0, 0.5, origin=(0.0, 0.0, 1.0 + gap))}
+    m = merge(parts)
+    return m, components_of(m, ["a", "b"])
+
+
+def _moved(m, comp, dim, dhat):
+    """The blocks' nodes with the upper block moved down by 1.6 dhat (from 2 dhat to 0.4 dhat)."""
+    x = m.points.copy()
+    x[comp == 1, dim - 1] -= 1.6 * dhat
+    return x
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_self_contacting_component_meets_itself_as_two_bodies_meet(dim):
+    """Two blocks labelled one component, 2 dhat apart, the upper one moved down to 0.4 dhat:
+    self-contacting (every node its own region, or one region a block), the component's barrier
+    (energy, gradient, Hessian) is the two components' (the same pairs: a different summation
+    order could differ by a few round-offs of the sum, the bound is 1e-12 of its scale), and its
+    CCD stops a motion through itself by twice the gap at the same fraction, at most half of it;
+    in one region, or without regions, it has no barrier and the same motion passes (step 1),
+    and it has no self-contacts to report."""
+    dhat = 0.01
+    # the actuator's CCD settings: at ipctk's default tolerance (1e-6) Tight Inclusion takes
+    # minutes on the blocks' parallel edges
+    settings = ContactSettings(dhat=dhat, kappa=1.0, ccd_tolerance=1e-3, ccd_max_iterations=100_000)
+    m, comp = _blocks(dim, 2 * dhat)
+    one = np.zeros_like(comp)
+    two = Contact(m.points, m.boundary_facets(), comp, settings)
+    self_ = Contact(m.points, m.boundary_facets(), one, settings, regions=np.arange(m.n_nodes))
+    plain = Contact(m.points, m.boundary_facets(), one, settings)
+    x0, x = m.points.copy(), _moved(m, comp, dim, dhat)
+    E = two.energy(x)
+    assert Contact(m.points, m.boundary_facets(), one, settings, regions=comp).energy(x) == pytest.approx(E, rel=1e-12)
+    assert Contact(m.points, m.boundary_facets(), one, settings, regions=one).energy(x) == 0.0
+    assert E > 0 and two.active(x) > 0
+    assert self_.energy(x) == pytest.approx(E, rel=1e-12)
+    g = two.gradient(x)
+    assert np.abs(self_.gradient(x) - g).max() <= 1e-12 * np.abs(g).max()
+    H = two.hessian(x)
+    assert abs(self_.hessian(x) - H).max() <= 1e-12 * abs(H).max()
+    assert self_.self_contacts(x) == two.active(x) and two.self_contacts(x) == 0
+    assert plain.energy(x) == 0.0 and plain.active(x) == 0
+    # the self-contacting block numbered last, the other chained: the filter covers its vertices
+    regions = np.where(comp == 1, np.arange(m.n_nodes), 0)
+    last = Contact(m.points, m.boundary_facets(), 1 - comp, settings, regions=regions)
+    assert last.energy(x) == pytest.approx(E, rel=1e-12) and last.self_contacts(x) == 0
+    dx = np.zeros_like(x0)
+    dx[comp == 1, dim - 1] = -4 * dhat
+    step = two.max_step(x0, dx)
+    assert 0 < step <= 0.5 and self_.max_step(x0, dx) == pytest.approx(step, rel=1e-9)
+    assert plain.max_step(x0, dx) == 1.0
+    assert self_.has_intersections(x0 + dx) and not plain.has_intersections(x0 + dx)
+
+
+def test_a_self_contacting_boundary_within_dhat_of_itself_is_refused():
+    """A block whose boundary segments (0.25 mm) lie within dhat = 0.3 mm of the next but one:
+    the barrier would load its reference state, so it is refused; at dhat 0.01 mm it is not."""
+    m = rectangle(1.0, 1.0, 0.25)
+    comp = np.zeros(m.n_nodes, dtype=int)
+    with pytest.raises(ValueError, match="within dhat"):
+        Contact(m.points, m.boundary_facets(), comp, ContactSettings(dhat=0.3, kappa=1.0), regions=np.arange(m.n_nodes))
+    C = Contact(m.points, m.boundary_facets(), comp, ContactSettings(dhat=0.01, kappa=1.0), regions=np.arange(m.n_nodes))
+    assert C.self_contacts(m.points) == 0 and C.active(m.points) == 0
+
+
+def _squeezed_ring(regions_of, delta):
+    """A plane-strain ring (radii 8 and 10 mm, G = 1 MPa) squeezed between its top and bottom
+    outer arcs (16 deg each side of the axis) by ``delta`` [mm]: the solver's result, the
+    accepted states' positions, the top arc's reaction [N/mm] and a full self-contact check."""
+    ri, ro, G, dhat = 8.0, 10.0, 1.0, 0.05
+    m = annulus(ri, ro, 1.0)
+    X = m.points
+    S = Solid(X, [Block(m.cells, element_for_meshio_type(m.cell_type), NeoHookean(shear_modulus=G, poisson_ratio=0.3))])
+    one = np.zeros(m.n_nodes, dtype=int)
+    C = Contact(X, m.boundary_facets(), one, ContactSettings(dhat, G), regions=regions_of(X))
+    check = Contact(X, m.boundary_facets(), one, ContactSettings(dhat, G), regions=np.arange(m.n_nodes))
+    outer = m.group_nodes("outer")
+    top, bottom = outer[X[outer, 1] > 0.96 * ro], outer[X[outer, 1] < -0.96 * ro]
+    bcs = [fixed(bottom, 2), fixed(top, 2, [0]), prescribed(top, 2, 1, -delta)]
+    states = []
+    res = solve_path(Problem(X, lambda s: [S, C], bcs, force_scale=G * ro), PathOptions(ds0=0.1),
+                     callback=lambda s, x, rec: states.append(x.copy()))
+    reaction = S.gradient(res.x.ravel()).reshape(-1, 2)[top, 1].sum()
+    return res, states, reaction, check, dhat
+
+
+def test_a_ring_squeezed_flat_meets_itself_and_never_passes_through():
+    """Squeezed by 17 mm (more than its 16 mm bore), the ring's inner surface must meet itself:
+    with its upper and lower halves as self-contact regions, no accepted state intersects (a
+    full self-contact check), the bore ends closed to a gap within dhat, and the squeeze takes
+    more than 10x the force it takes with the ring's self-contact left out (measured 29x), where
+    the bore passes through itself."""
+    res, states, reaction, check, dhat = _squeezed_ring(lambda X: (X[:, 1] > 0).astype(int), 17.0)
+    assert res.converged, res.message
+    assert not any(check.has_intersections(x) for x in states)
+    assert check.self_contacts(res.x) > 0 and 0 < check.minimum_distance(res.x) < dhat
+    loose, _, slack, _, _ = _squeezed_ring(lambda X: None, 17.0)
+    assert loose.converged and check.has_intersections(loose.x)
+    assert reaction < 10 * slack < 0

@@ -40,6 +40,14 @@ KAPPA_PER_MEMBRANE_MODULUS = 1.0  # barrier stiffness / membrane shear modulus (
 CCD_3D = {"ccd_tolerance": 1e-3, "ccd_max_iterations": 100_000}
 WALL_COMPONENT = -1  # contact component of the membrane and strain-limit layer (one bonded body)
 
+#: the walls' self-contact: their nodes fall into bands along the actuator's axis (reference z),
+#: each as long as the actuator is wide (``Design.width``), and only walls of different bands may
+#: touch. A wall curls onto itself over a full turn, whose centreline is at least pi x the width
+#: long, so that contact is never between neighbours in one band; the bands spare the CCD the
+#: pairs of neighbouring wall triangles, which would cost a 3D run about a tenth more a Newton
+#: iteration (docs/actuator.md, "Model").
+SELF_CONTACT_BAND_PER_WIDTH = 1.0
+
 #: body ids written to results (cell data ``body_id``): particles are PARTICLE_BODY + k
 MEMBRANE_BODY, STRAIN_LIMIT_BODY, PARTICLE_BODY = 0, 1, 2
 
@@ -145,6 +153,31 @@ def centreline_x(design: Design) -> float:
     return -design.resolved_cavity_width / 2 - design.side_wall_thickness - design.strain_limit_thickness / 2
 
 
+def _wall_bands(mesh: Mesh, design: Design, components: np.ndarray) -> np.ndarray:
+    """Self-contact regions: the walls' nodes by band along the axis
+    (:data:`SELF_CONTACT_BAND_PER_WIDTH`), every particle one region (0)."""
+    band = SELF_CONTACT_BAND_PER_WIDTH * design.width
+    bands = np.floor(-mesh.points[:, -1] / band).astype(np.int64)
+    return np.where(components == WALL_COMPONENT, bands, 0)
+
+
+def _outer_faces(mesh: Mesh) -> np.ndarray:
+    """The walls' outer faces (3D): the membrane's and the strain-limit layer's boundary facets
+    but the cavity's, the clamped face and the cut faces on a symmetry plane."""
+    walls = np.concatenate([mesh.cell_groups[MEMBRANE], mesh.cell_groups[STRAIN_LIMIT_LAYER]])
+    facets = mesh.boundary_facets(walls)
+    corners = mesh.dim
+
+    def keys(f):
+        return {tuple(k) for k in np.sort(np.asarray(f)[:, :corners], axis=1)}
+
+    skip = keys(mesh.facet_groups["cavity"]) | keys(mesh.facet_groups["clamp"])
+    if "symmetry" in mesh.facet_groups:
+        skip |= keys(mesh.facet_groups["symmetry"])
+    keep = [tuple(k) not in skip for k in np.sort(facets[:, :corners], axis=1)]
+    return facets[np.asarray(keep, dtype=bool)]
+
+
 def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
     x_mid = centreline_x(design)
     nodes = np.unique(mesh.cells[mesh.cell_groups[STRAIN_LIMIT_LAYER]])
@@ -190,11 +223,12 @@ def build_model(design: Design) -> ActuatorModel:
     facets = mesh.boundary_facets()
     symmetry_nodes, ccd = None, {}
     if design.dimension == 3:
-        # only the cavity's wall and the particles' surfaces can touch: the collision mesh (the
-        # cut faces on y = 0 of a half model are no surfaces of the actuator, and the groups
-        # leave them out); the walls' outer faces would only add work to every CCD
+        # the collision mesh: the cavity's wall, the particles' surfaces and the walls' outer
+        # faces, which a long chamber curling past a full turn meets with itself; not the cut
+        # faces on y = 0 of a half model (no surfaces of the actuator) nor the clamped face
         facets = np.concatenate([mesh.facet_groups["cavity"]]
-                                + [mesh.facet_groups[f"particle{k}_boundary"] for k in range(n_p)])
+                                + [mesh.facet_groups[f"particle{k}_boundary"] for k in range(n_p)]
+                                + [_outer_faces(mesh)])
         if design.mesh.symmetry:
             symmetry_nodes = mesh.group_nodes("symmetry")
         ccd = CCD_3D
@@ -209,7 +243,7 @@ def build_model(design: Design) -> ActuatorModel:
                                 dhat=DHAT_PER_CLEARANCE * design.clearance, kappa=kappa, friction=design.friction,
                                 friction_eps=design.friction_slip,
                                 **ccd)
-    contact = Contact(mesh.points, facets, components, settings)
+    contact = Contact(mesh.points, facets, components, settings, regions=_wall_bands(mesh, design, components))
     segments = straight_pieces(mesh.facet_groups["cavity"], mesh.dim - 1)
     centreline = _centreline(mesh, design)
     # the particles' as-prepared total: in 2D the circles' area, in 3D the meshed volume (of their

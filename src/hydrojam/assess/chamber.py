@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hydrojam.actuator.design import Design
-from hydrojam.actuator.model import MEMBRANE, PARTICLES, STRAIN_LIMIT_LAYER, WALL_COMPONENT, ActuatorModel
+from hydrojam.actuator.model import MEMBRANE, PARTICLES, STRAIN_LIMIT_LAYER, ActuatorModel
 from hydrojam.actuator.simulate import ACTUATOR_PATH, STABILISATION, SimulationResult, simulate
 from hydrojam.assess.loading import Structure, tip_compliance
 from hydrojam.fem.assembly import Block, Solid
@@ -28,16 +28,17 @@ from hydrojam.materials.energies import Material
 BLOCK_STIFFNESS_PER_MODULUS = 100.0
 
 
-def self_contact(model: ActuatorModel) -> Contact:
-    """The model's contact with the walls' self-contact added: every wall node its own contact
-    component (the particles keep theirs), so the membrane folding onto itself meets a barrier
-    like any other contact (IPC's self-contact; adjacent segments never collide). Same barrier
-    settings as the model's. The particles' forces on the walls are still the model's own
-    ``contact`` at the same state (the barrier is a sum over pairs)."""
-    components = np.array(model.components, copy=True)
-    walls = np.flatnonzero(components == WALL_COMPONENT)
-    components[walls] = model.n_particles + np.arange(len(walls))
-    return Contact(model.mesh.points, model.mesh.boundary_facets(), components, model.contact.settings)
+def self_contact(model: ActuatorModel, walls_meet: bool = True) -> Contact:
+    """The 2D model's contact with the walls' full self-contact (IPC's: any two wall segments
+    that share no node), so the membrane folding into the voids between particles meets itself
+    at a barrier like any other contact; or, with ``walls_meet`` False, with none (the walls
+    pass through each other). The model's own contact lets only walls of different bands along
+    the axis touch (a chamber curling onto itself), which a vacuum's folds are not. Same barrier
+    settings as the model's. The particles' forces on the walls are the particle-wall pairs'
+    alone either way (the barrier is a sum over pairs)."""
+    regions = np.arange(model.mesh.n_nodes) if walls_meet else None
+    return Contact(model.mesh.points, model.mesh.boundary_facets(), model.components, model.contact.settings,
+                   regions=regions)
 
 
 def actuator_structure(model: ActuatorModel, s: float = 1.0, particles: Material | None = None,
@@ -159,7 +160,7 @@ def vacuum_jamming(model: ActuatorModel, pressure: float, particles: Material | 
     ``pressure`` says what was held. ``walls_meet``: with the walls' self-contact
     (:func:`self_contact`; without it the walls pass through each other in the corner voids and
     the path stops near 12-20 kPa, docs/assess.md)."""
-    base = actuator_structure(model, 0.0, particles, self_contact(model) if walls_meet else None)
+    base = actuator_structure(model, 0.0, particles, self_contact(model, walls_meet))
     mesh = model.mesh
     w = lumped_volumes(mesh.points, mesh.cells, mesh.cell_volumes())
     stab = ViscousStabilisation(w, stabilisation * model.membrane.shear_modulus_ref / model.design.particle_diameter, 2)

@@ -15,7 +15,8 @@ normal forces and tangent bases frozen at the start of each load step (``begin_s
 
 Quadratic elements enter the collision mesh as their boundary nodes joined by straight
 segments (2D) or split triangles (3D). Only primitives of *different* components (a component
-is a body, or bodies bonded by shared nodes) can collide.
+is a body, or bodies bonded by shared nodes) can collide, or primitives of one component in
+different *regions* of it (self-contact: a long chamber's walls curling onto themselves).
 """
 
 from __future__ import annotations
@@ -151,21 +152,26 @@ def default_settings(
     return ContactSettings(dhat=dhat, kappa=kappa, **kw)
 
 
-def _component_filter(components: np.ndarray):
-    """An ipctk filter (in C++) that blocks pairs inside one component: chain each component's
-    vertices with fake edges and let ipctk's connected-components filter do the rest."""
+def _component_filter(labels: np.ndarray):
+    """An ipctk filter (in C++) that blocks pairs of vertices with one label: chain each label's
+    vertices with fake edges and let ipctk's connected-components filter do the rest. Its table
+    ends at the highest vertex of a fake edge, so a loop on the last vertex makes it cover every
+    vertex (an unchained one is a label of its own); without it a pair with an unchained vertex
+    past that end read beyond the table (a crash, or pairs blocked or let through at random)."""
     chain = []
-    for c in np.unique(components):
-        ids = np.flatnonzero(components == c)
+    for c in np.unique(labels):
+        ids = np.flatnonzero(labels == c)
         if len(ids) > 1:
             chain.append(np.stack([ids[:-1], ids[1:]], axis=1))
     if not chain:
         return None
+    chain.append(np.array([[len(labels) - 1, len(labels) - 1]]))
     return ipctk.make_connected_components_filter(np.asfortranarray(np.concatenate(chain).astype(np.int32)))
 
 
 class Contact(EnergyTerm):
-    """IPC barrier (and optional lagged friction) between the boundaries of different components.
+    """IPC barrier (and optional lagged friction) between the boundaries of different components,
+    and within a self-contacting one.
 
     Its Hessian is exact (not projected) unless the solver asks: projecting the barrier Hessian
     always doubled Newton iterations and failed a Hertz test; ``fallback_projection`` lets the
@@ -183,6 +189,13 @@ class Contact(EnergyTerm):
         Barrier and friction parameters.
     name : str, optional
         The term's name.
+    regions : ndarray, shape (n_nodes,), optional
+        Self-contact: two primitives of one component may collide where a vertex of one and a
+        vertex of the other lie in different regions (ipctk lets a pair through where any of
+        its vertex pairs passes; primitives that share a vertex never collide). None: no
+        self-contact; every node its own region: IPC's full self-contact. A self-contacting
+        boundary must lie farther than dhat from itself at X, or the barrier would load the
+        reference state (a ``ValueError``).
     """
 
     fallback_projection = True
@@ -192,7 +205,7 @@ class Contact(EnergyTerm):
     it again."""
 
     def __init__(self, X: np.ndarray, facets: np.ndarray, components: np.ndarray, settings: ContactSettings,
-                 name: str = "contact"):
+                 name: str = "contact", regions: np.ndarray | None = None):
         self.name = name
         self.X = np.asarray(X, dtype=float)
         self.dim = self.X.shape[1]
@@ -206,7 +219,12 @@ class Contact(EnergyTerm):
             self._cm = ipctk.CollisionMesh.build_from_full_mesh(V, np.asfortranarray(ipctk.edges(faces)), faces)
         self.vertex_ids = np.array([self._cm.to_full_vertex_id(i) for i in range(self._cm.num_vertices)], dtype=np.int64)
         self.components = np.asarray(components)[self.vertex_ids]
-        flt = _component_filter(self.components)
+        self.self_contact = regions is not None
+        labels = self.components
+        if self.self_contact:
+            pairs = np.stack([self.components, np.asarray(regions)[self.vertex_ids]], axis=1)
+            labels = np.unique(pairs, axis=0, return_inverse=True)[1].ravel()
+        flt = _component_filter(labels)
         if flt is not None:
             self._cm.can_collide = flt
         self._barrier = ipctk.BarrierPotential(settings.dhat, settings.kappa, True)
@@ -221,6 +239,9 @@ class Contact(EnergyTerm):
         if settings.friction > 0 or settings.pair_friction:
             eps = settings.friction_eps if settings.friction_eps is not None else 1e-2 * settings.dhat
             self._friction_potential = ipctk.FrictionPotential(eps)
+        if self.self_contact and self.self_contacts(self.X):
+            raise ValueError(f"contact: a self-contacting boundary lies within dhat = {settings.dhat:g} mm of "
+                             "itself in the reference state")
 
     def fresh(self) -> Contact:
         """This term without the friction frozen by an earlier ``begin_step`` (none until the
@@ -352,15 +373,15 @@ class Contact(EnergyTerm):
     # -- diagnostics ---------------------------------------------------------------------------
 
     def minimum_distance(self, x: np.ndarray) -> float:
-        """Smallest distance between primitives of different components within reach [mm]
-        (``inf`` when none is closer than dhat)."""
+        """Smallest distance between primitives that may collide (of different components, or of
+        one self-contacting component) within reach [mm] (``inf`` when none is closer than dhat)."""
         V, col = self._collisions(x)
         if len(col) == 0:
             return np.inf
         return float(np.sqrt(col.compute_minimum_distance(self._cm, V)))
 
     def has_intersections(self, x: np.ndarray) -> bool:
-        """Whether any two boundaries of different components intersect at x."""
+        """Whether any two primitives that may collide (see :meth:`minimum_distance`) intersect at x."""
         return bool(ipctk.has_intersections(self._cm, self._vertices(x)))
 
     def nodal_forces(self, x: np.ndarray) -> np.ndarray:
@@ -379,6 +400,17 @@ class Contact(EnergyTerm):
             if len(comps) >= 2:
                 pairs.add((comps[0], comps[1]))
         return sorted(pairs)
+
+    def self_contacts(self, x: np.ndarray) -> int:
+        """Number of active collisions (within dhat) at x inside one component (self-contact)."""
+        if not self.self_contact:
+            return 0
+        V, col = self._collisions(x)
+        n = 0
+        for i in range(len(col)):
+            comps = {int(self.components[v]) for v in col[i].vertex_ids(self._cm.edges, self._cm.faces) if v >= 0}
+            n += len(comps) == 1
+        return n
 
     def active(self, x: np.ndarray) -> int:
         """Number of active collision primitives pairs (within dhat) at x."""
