@@ -403,8 +403,8 @@ def test_a_self_contacting_component_meets_itself_as_two_bodies_meet(dim):
     (energy, gradient, Hessian) is the two components' (the same pairs: a different summation
     order could differ by a few round-offs of the sum, the bound is 1e-12 of its scale), and its
     CCD stops a motion through itself by twice the gap at the same fraction, at most half of it;
-    in one region, or without regions, it has no barrier and the same motion passes (step 1),
-    and it has no self-contacts to report."""
+    in one region, or without regions (or its pairs between components alone), it has no
+    barrier and the same motion passes (step 1), and it has no self-contacts to report."""
     dhat = 0.01
     # the actuator's CCD settings: at ipctk's default tolerance (1e-6) Tight Inclusion takes
     # minutes on the blocks' parallel edges
@@ -425,6 +425,7 @@ def test_a_self_contacting_component_meets_itself_as_two_bodies_meet(dim):
     H = two.hessian(x)
     assert abs(self_.hessian(x) - H).max() <= 1e-12 * abs(H).max()
     assert self_.self_contacts(x) == two.active(x) and two.self_contacts(x) == 0
+    assert self_.between_components().energy(x) == 0.0 and two.between_components() is two
     assert plain.energy(x) == 0.0 and plain.active(x) == 0
     # the self-contacting block numbered last, the other chained: the filter covers its vertices
     regions = np.where(comp == 1, np.arange(m.n_nodes), 0)

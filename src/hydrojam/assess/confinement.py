@@ -61,4 +61,4 @@ def wall_contact_pressure(model: ActuatorModel, x: np.ndarray, threshold: float 
     the traction integrated over the node's share of the wall; the quadratic edges enter the
     collision mesh as two straight pieces each) through :func:`segment_pressure`. Zero when
     nothing touches."""
-    return segment_pressure(model.cavity_segments, x, model.contact.nodal_forces(x), threshold)
+    return segment_pressure(model.cavity_segments, x, model.contact.between_components().nodal_forces(x), threshold)

@@ -219,6 +219,8 @@ class Contact(EnergyTerm):
             self._cm = ipctk.CollisionMesh.build_from_full_mesh(V, np.asfortranarray(ipctk.edges(faces)), faces)
         self.vertex_ids = np.array([self._cm.to_full_vertex_id(i) for i in range(self._cm.num_vertices)], dtype=np.int64)
         self.components = np.asarray(components)[self.vertex_ids]
+        self._facets, self._node_components = np.asarray(facets), np.asarray(components)
+        self._between = None
         self.self_contact = regions is not None
         labels = self.components
         if self.self_contact:
@@ -242,6 +244,16 @@ class Contact(EnergyTerm):
         if self.self_contact and self.self_contacts(self.X):
             raise ValueError(f"contact: a self-contacting boundary lies within dhat = {settings.dhat:g} mm of "
                              "itself in the reference state")
+
+    def between_components(self) -> Contact:
+        """This contact without its self-contact (itself where it has none): the pairs between
+        different components alone, e.g. for the particles' forces on a wall that also meets
+        itself. Built once, then kept."""
+        if not self.self_contact:
+            return self
+        if self._between is None:
+            self._between = Contact(self.X, self._facets, self._node_components, self.settings, self.name)
+        return self._between
 
     def fresh(self) -> Contact:
         """This term without the friction frozen by an earlier ``begin_step`` (none until the
