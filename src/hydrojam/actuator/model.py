@@ -44,8 +44,7 @@ WALL_COMPONENT = -1  # contact component of the membrane and strain-limit layer 
 #: each as long as the actuator is wide (``Design.width``), and only walls of different bands may
 #: touch. A wall curls onto itself over a full turn, whose centreline is at least pi x the width
 #: long, so that contact is never between neighbours in one band; the bands spare the CCD the
-#: pairs of neighbouring wall triangles, which would cost a 3D run about a tenth more a Newton
-#: iteration (docs/actuator.md, "Model").
+#: pairs of neighbouring wall triangles (docs/actuator.md, "Choices").
 SELF_CONTACT_BAND_PER_WIDTH = 1.0
 
 #: body ids written to results (cell data ``body_id``): particles are PARTICLE_BODY + k
