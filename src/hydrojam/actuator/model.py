@@ -160,9 +160,9 @@ def _wall_bands(mesh: Mesh, design: Design, components: np.ndarray) -> np.ndarra
     return np.where(components == WALL_COMPONENT, bands, 0)
 
 
-def _outer_faces(mesh: Mesh) -> np.ndarray:
-    """The walls' outer faces (3D): the membrane's and the strain-limit layer's boundary facets
-    but the cavity's, the clamped face and the cut faces on a symmetry plane."""
+def outer_faces(mesh: Mesh) -> np.ndarray:
+    """The walls' outer surface, outward (nf, nfn): the membrane's and the strain-limit layer's
+    boundary facets but the cavity's, the clamped face and the cut faces on a symmetry plane."""
     walls = np.concatenate([mesh.cell_groups[MEMBRANE], mesh.cell_groups[STRAIN_LIMIT_LAYER]])
     facets = mesh.boundary_facets(walls)
     corners = mesh.dim
@@ -227,7 +227,7 @@ def build_model(design: Design) -> ActuatorModel:
         # faces on y = 0 of a half model (no surfaces of the actuator) nor the clamped face
         facets = np.concatenate([mesh.facet_groups["cavity"]]
                                 + [mesh.facet_groups[f"particle{k}_boundary"] for k in range(n_p)]
-                                + [_outer_faces(mesh)])
+                                + [outer_faces(mesh)])
         if design.mesh.symmetry:
             symmetry_nodes = mesh.group_nodes("symmetry")
         ccd = CCD_3D

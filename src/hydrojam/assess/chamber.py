@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hydrojam.actuator.design import Design
-from hydrojam.actuator.model import MEMBRANE, PARTICLES, STRAIN_LIMIT_LAYER, ActuatorModel
+from hydrojam.actuator.model import MEMBRANE, PARTICLES, STRAIN_LIMIT_LAYER, ActuatorModel, outer_faces
 from hydrojam.actuator.simulate import ACTUATOR_PATH, STABILISATION, SimulationResult, simulate
 from hydrojam.assess.loading import Structure, tip_compliance
 from hydrojam.fem.assembly import Block, Solid
@@ -75,18 +75,10 @@ def empty_chamber(design: Design) -> Structure:
 
 def outer_facets(model: ActuatorModel) -> np.ndarray:
     """The chamber's outer surface (membrane and strain-limit layer), outward: every boundary
-    facet of the walls except the cavity's and the clamped face's (nf, 3). Its only edges are
-    held by the clamp, so a follower pressure on it is conservative (PressureTerm)."""
-    mesh = model.mesh
-    walls = np.concatenate([mesh.cell_groups[MEMBRANE], mesh.cell_groups[STRAIN_LIMIT_LAYER]])
-    facets = mesh.boundary_facets(walls)
-    d = mesh.dim
-
-    def keys(f):
-        return {tuple(sorted(row[:d])) for row in f}
-
-    skip = keys(mesh.facet_groups["cavity"]) | keys(mesh.facet_groups["clamp"])
-    return facets[np.array([tuple(sorted(row[:d])) not in skip for row in facets], dtype=bool)]
+    facet of the walls except the cavity's and the clamped face's (nf, 3;
+    :func:`hydrojam.actuator.model.outer_faces`). Its only edges are held by the clamp, so a
+    follower pressure on it is conservative (PressureTerm)."""
+    return outer_faces(model.mesh)
 
 
 def vacuum_term(model: ActuatorModel, pressure: float) -> PressureTerm:

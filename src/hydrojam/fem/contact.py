@@ -294,7 +294,7 @@ class Contact(EnergyTerm):
             table = {tuple(sorted(k)): v for k, v in self.settings.pair_friction.items()}
             for group in (tc.vv_collisions, tc.ev_collisions, tc.ee_collisions, tc.fv_collisions):
                 for c in group:
-                    comps = sorted({int(self.components[v]) for v in c.vertex_ids(self._cm.edges, self._cm.faces) if v >= 0})
+                    comps = self._components_of(c)
                     mu = table.get(tuple(comps[:2]), self.settings.friction) if len(comps) >= 2 else self.settings.friction
                     c.mu_s = mu
                     c.mu_k = mu
@@ -407,8 +407,7 @@ class Contact(EnergyTerm):
         V, col = self._collisions(x)
         pairs = set()
         for i in range(len(col)):
-            ids = [v for v in col[i].vertex_ids(self._cm.edges, self._cm.faces) if v >= 0]
-            comps = sorted({int(self.components[v]) for v in ids})
+            comps = self._components_of(col[i])
             if len(comps) >= 2:
                 pairs.add((comps[0], comps[1]))
         return sorted(pairs)
@@ -418,11 +417,11 @@ class Contact(EnergyTerm):
         if not self.self_contact:
             return 0
         V, col = self._collisions(x)
-        n = 0
-        for i in range(len(col)):
-            comps = {int(self.components[v]) for v in col[i].vertex_ids(self._cm.edges, self._cm.faces) if v >= 0}
-            n += len(comps) == 1
-        return n
+        return sum(len(self._components_of(col[i])) == 1 for i in range(len(col)))
+
+    def _components_of(self, collision) -> list[int]:
+        """Sorted components of a collision's vertices."""
+        return sorted({int(self.components[v]) for v in collision.vertex_ids(self._cm.edges, self._cm.faces) if v >= 0})
 
     def active(self, x: np.ndarray) -> int:
         """Number of active collision primitives pairs (within dhat) at x."""
