@@ -9,7 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 import pytest
 
-from hydrojam.fem.meshing import annulus, ball, box, disks, half_disk, quarter_hemisphere, rectangle
+from hydrojam.fem.meshing import annulus, ball, box, disk, disks, half_disk, quarter_hemisphere, rectangle
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.contact import Contact, ContactSettings, collision_primitives, default_settings
 from hydrojam.fem.elements import element_for_meshio_type
@@ -366,6 +366,99 @@ def test_the_hessian_pattern_holds_every_collision_within_reach(dim):
     assert _pattern_holds(P, C.hessian(x1)) and _pattern_holds(P, C.hessian(x1, project=True))
     far = np.flatnonzero(np.repeat(comp == 2, dim))
     assert sp.csr_matrix(P)[far].nnz == 0
+
+
+def _pattern_by_distances(C, x):
+    """The pattern of :meth:`Contact.hessian_pattern` from its definition, one exact ipctk
+    distance a candidate: the whole stencils of ipctk's candidates (boxes inflated by
+    dhat / 2 + reach) closer than dhat + 2 reach. Returns (pattern, pairs kept, candidates)."""
+    import ipctk
+
+    V = C._vertices(x)
+    cand = ipctk.Candidates()
+    cand.build(C._cm, V, 0.5 * C.settings.dhat + C.settings.reach)
+    limit = (C.settings.dhat + 2.0 * C.settings.reach) ** 2  # ipctk's distances are squared
+    E, F, kept = C._cm.edges, C._cm.faces, []
+    if C.dim == 2:
+        for c in cand.ev_candidates:
+            (a, b), v = E[c.edge_id], c.vertex_id
+            if ipctk.point_edge_distance(V[v], V[a], V[b]) < limit:
+                kept.append((a, b, v))
+    else:
+        for c in cand.fv_candidates:
+            (a, b, f), v = F[c.face_id], c.vertex_id
+            if ipctk.point_triangle_distance(V[v], V[a], V[b], V[f]) < limit:
+                kept.append((a, b, f, v))
+        for c in cand.ee_candidates:
+            (a, b), (e, f) = E[c.edge0_id], E[c.edge1_id]
+            if ipctk.edge_edge_distance(V[a], V[b], V[e], V[f]) < limit:
+                kept.append((a, b, e, f))
+    s = np.array(kept, dtype=np.int64).reshape(-1, C.dim + 1)
+    vi, vj = np.repeat(s, s.shape[1], axis=1).ravel(), np.tile(s, (1, s.shape[1])).ravel()
+    nodes = C.vertex_ids
+    dof = lambda v: (nodes[v][:, None] * C.dim + np.arange(C.dim)).ravel()  # noqa: E731
+    rows = np.repeat(dof(vi).reshape(-1, C.dim), C.dim, axis=1).ravel()
+    cols = np.tile(dof(vj).reshape(-1, C.dim), (1, C.dim)).ravel()
+    n = x.size
+    P = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    P.data[:] = 1.0
+    return P, len(kept), len(cand)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_the_hessian_pattern_is_the_stencils_of_the_pairs_within_reach(dim):
+    """Balls (disks) of faceted surface at gaps of 0.3 to 2.5 dhat from each other, jittered: the
+    pattern, found from ipctk's collisions within dhat + 2 reach, is exactly the one its
+    definition gives candidate by candidate (one exact distance each), and the configuration has
+    candidates on both sides of that limit, so the test tells the two rules apart."""
+    dhat = 0.05
+    settings = ContactSettings(dhat=dhat, kappa=1.0)
+    gaps = [0.3 * dhat, 1.2 * dhat, 1.9 * dhat]  # centre distances 2 + gap
+    if dim == 2:
+        centres = [(0.0, 0.0), (2.0 + gaps[0], 0.0), (0.0, 2.0 + gaps[1]), (2.0 + gaps[0], 2.0 + gaps[2])]
+        parts = {f"p{k}": disk(1.0, 0.25, centre=c) for k, c in enumerate(centres)}
+    else:
+        centres = [(0.0, 0.0, 0.0), (2.0 + gaps[0], 0.0, 0.0), (0.0, 2.0 + gaps[1], 0.0), (0.0, 0.0, 2.0 + gaps[2])]
+        parts = {f"p{k}": ball(1.0, 0.5, centre=c) for k, c in enumerate(centres)}
+    m = merge(parts)
+    comp = components_of(m, list(parts))
+    C = Contact(m.points, m.boundary_facets(), comp, settings)
+    rng = np.random.default_rng(12)
+    for _ in range(3):
+        x = m.points + rng.uniform(-0.1 * dhat, 0.1 * dhat, m.points.shape)
+        assert not C.has_intersections(x)
+        (ref, kept, candidates), got = _pattern_by_distances(C, x), C.hessian_pattern(x)
+        assert np.array_equal(got.indptr, ref.indptr) and np.array_equal(got.indices, ref.indices)
+        assert 0 < kept < candidates  # candidates on both sides of the limit
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_the_hessian_on_the_full_mesh_is_ipctks_mapping(dim):
+    """Two blocks inside each other's dhat, with lagged friction: the contact Hessian, renumbered
+    from the collision mesh's DOFs to the full mesh's, has the entries, order and values of
+    ipctk's own ``to_full_dof``, exact and projected."""
+    import ipctk
+
+    settings = ContactSettings(dhat=0.05, kappa=1.0, friction=0.3)
+    if dim == 2:
+        parts = {"a": rectangle(1.0, 1.0, 0.25), "b": rectangle(1.0, 1.0, 0.25, origin=(1.02, 0.1))}
+    else:
+        parts = {"a": box(1.0, 1.0, 1.0, 0.5), "b": box(1.0, 1.0, 1.0, 0.5, origin=(1.02, 0.1, 0.1))}
+    m = merge(parts)
+    C = Contact(m.points, m.boundary_facets(), components_of(m, ["a", "b"]), settings)
+    x = m.points.copy()
+    C.begin_step(x)
+    x[components_of(m, ["a", "b"]) == 1, 1] += 0.01  # a slip for the friction
+    assert C.active(x) > 0
+    for project in (False, True):
+        V, col = C._collisions(x)
+        method = ipctk.PSDProjectionMethod.CLAMP if project else ipctk.PSDProjectionMethod.NONE
+        V0, tc = C._friction
+        H = C._barrier.hessian(col, C._cm, V, method) + C._friction_potential.hessian(
+            tc, C._cm, np.asfortranarray(V - V0), method)
+        ref, got = sp.csr_matrix(C._cm.to_full_dof(sp.csc_matrix(H))), C.hessian(x, project)
+        assert np.array_equal(got.indptr, ref.indptr) and np.array_equal(got.indices, ref.indices)
+        assert np.array_equal(got.data, ref.data) and got.nnz > 0
 
 
 def test_the_pattern_reach_defaults_to_half_dhat_and_refuses_a_negative_one():

@@ -169,6 +169,30 @@ def _component_filter(labels: np.ndarray):
     return ipctk.make_connected_components_filter(np.asfortranarray(np.concatenate(chain).astype(np.int32)))
 
 
+def _ids(rows: list) -> np.ndarray:
+    """Index pairs as an (n, 2) int64 array (also where there are none)."""
+    return np.array(rows, dtype=np.int64).reshape(-1, 2)
+
+
+def _keys(rows: list, base: int, symmetric: bool = False) -> np.ndarray:
+    """Index pairs (i, j) as sorted int64 keys i * base + j (``symmetric``: the pair unordered)."""
+    p = _ids(rows)
+    if symmetric:
+        p = np.sort(p, axis=1)
+    return np.unique(p[:, 0] * base + p[:, 1])
+
+
+def _any_pair(keys: np.ndarray, base: int, first: list, second: list, ordered: bool = False) -> np.ndarray:
+    """Whether any pair (i, j), i from the arrays ``first`` and j from ``second`` (elementwise),
+    is among ``keys`` (:func:`_keys`; unordered unless ``ordered``)."""
+    hit = np.zeros(len(first[0]), dtype=bool)
+    for i in first:
+        for j in second:
+            k = i * base + j if ordered else np.minimum(i, j) * base + np.maximum(i, j)
+            hit |= np.isin(k, keys)
+    return hit
+
+
 class Contact(EnergyTerm):
     """IPC barrier (and optional lagged friction) between the boundaries of different components,
     and within a self-contacting one.
@@ -218,6 +242,9 @@ class Contact(EnergyTerm):
             faces = np.asfortranarray(prims)
             self._cm = ipctk.CollisionMesh.build_from_full_mesh(V, np.asfortranarray(ipctk.edges(faces)), faces)
         self.vertex_ids = np.array([self._cm.to_full_vertex_id(i) for i in range(self._cm.num_vertices)], dtype=np.int64)
+        if np.any(np.diff(self.vertex_ids) <= 0):  # ipctk builds it in the full mesh's order
+            raise RuntimeError("the collision mesh does not keep the full mesh's vertex order")
+        self._full_dofs = (self.vertex_ids[:, None] * self.dim + np.arange(self.dim)).ravel()
         self.components = np.asarray(components)[self.vertex_ids]
         self._facets, self._node_components = np.asarray(facets), np.asarray(components)
         self._between = None
@@ -325,7 +352,17 @@ class Contact(EnergyTerm):
         if self._friction is not None:
             V0, tc = self._friction
             H = H + self._friction_potential.hessian(tc, self._cm, np.asfortranarray(V - V0), method)
-        return sp.csr_matrix(self._cm.to_full_dof(sp.csc_matrix(H)))
+        return self._to_full(sp.csc_matrix(H))
+
+    def _to_full(self, H: sp.csc_matrix) -> sp.csr_matrix:
+        """A matrix over the collision mesh's DOFs as one over the full mesh's (CSR): what
+        ipctk's ``to_full_dof`` gives, by renumbering, since the collision mesh keeps the full
+        mesh's vertex order (checked in ``__init__``)."""
+        n = self._cm.full_ndof
+        counts = np.zeros(n + 1, dtype=np.int64)
+        counts[self._full_dofs + 1] = np.diff(H.indptr)
+        full = sp.csc_matrix((H.data, self._full_dofs[H.indices], np.cumsum(counts)), shape=(n, n))
+        return full.tocsr()
 
     def hessian_pattern(self, x: np.ndarray) -> sp.csr_matrix:
         """Every coupling [full DOFs, (n*d, n*d), values 1] that a collision can bring while no
@@ -338,35 +375,47 @@ class Contact(EnergyTerm):
         dhat / 2 + reach) kept where ipctk's exact distance is below dhat + 2 reach: the
         candidates alone couple primitives whose boxes merely overlap, and on a jammed 3D
         packing their fill slowed every factorisation more than the analyses they saved
-        (docs/solver.md, "A changing contact pattern")."""
+        (docs/solver.md, "A changing contact pattern").
+
+        ipctk measures the distances, in compiled code: its collisions within dhat + 2 reach
+        are the candidates' closest features there, so a candidate is that close exactly where
+        one of its features (the pair itself, an edge or vertex of one against the other) is
+        among them. A feature lies no closer than the primitive it belongs to, and the closest
+        feature of a pair that close is one of its collisions."""
         V = self._vertices(x)
         reach = self.settings.reach
         cand = ipctk.Candidates()
         cand.build(self._cm, V, 0.5 * self.settings.dhat + reach)
-        limit = (self.settings.dhat + 2.0 * reach) ** 2  # ipctk's distances are squared
-        E, F = self._cm.edges, self._cm.faces
-        kept = []
+        near = ipctk.NormalCollisions()
+        near.build(cand, self._cm, V, self.settings.dhat + 2.0 * reach)
+        nv, E = self._cm.num_vertices, self._cm.edges
+        vv = _keys([(c.vertex0_id, c.vertex1_id) for c in near.vv_collisions], nv, symmetric=True)
+        ev = _keys([(c.edge_id, c.vertex_id) for c in near.ev_collisions], nv)
         if self.dim == 2:
-            distance = ipctk.point_edge_distance
-            for c in cand.ev_candidates:
-                a, b = E[c.edge_id]
-                v = c.vertex_id
-                if distance(V[v], V[a], V[b]) < limit:
-                    kept.append((a, b, v))
+            pairs = _ids([(c.edge_id, c.vertex_id) for c in cand.ev_candidates])
+            (a, b), v = E[pairs[:, 0]].T, pairs[:, 1]
+            kept = np.isin(pairs[:, 0] * nv + v, ev) | _any_pair(vv, nv, [a, b], [v])
+            stencils = np.stack([a, b, v], axis=1)[kept]
         else:
-            pt, ee = ipctk.point_triangle_distance, ipctk.edge_edge_distance
-            for c in cand.fv_candidates:
-                a, b, f = F[c.face_id]
-                v = c.vertex_id
-                if pt(V[v], V[a], V[b], V[f]) < limit:
-                    kept.append((a, b, f, v))
-            for c in cand.ee_candidates:
-                (a, b), (e, f) = E[c.edge0_id], E[c.edge1_id]
-                if ee(V[a], V[b], V[e], V[f]) < limit:
-                    kept.append((a, b, e, f))
+            F, FE, ne = self._cm.faces, self._cm.faces_to_edges, len(self._cm.edges)
+            fv = _keys([(c.face_id, c.vertex_id) for c in near.fv_collisions], nv)
+            ee = _keys([(c.edge0_id, c.edge1_id) for c in near.ee_collisions], ne, symmetric=True)
+            pairs = _ids([(c.face_id, c.vertex_id) for c in cand.fv_candidates])
+            f, v = pairs[:, 0], pairs[:, 1]
+            corners = F[f].T
+            kept = (np.isin(f * nv + v, fv) | np.isin(FE[f] * nv + v[:, None], ev).any(axis=1)
+                    | _any_pair(vv, nv, list(corners), [v]))
+            face_stencils = np.column_stack([*corners, v])[kept]
+            pairs = _ids([(c.edge0_id, c.edge1_id) for c in cand.ee_candidates])
+            e0, e1 = pairs[:, 0], pairs[:, 1]
+            (a, b), (c_, d_) = E[e0].T, E[e1].T
+            kept = (np.isin(np.minimum(e0, e1) * ne + np.maximum(e0, e1), ee)
+                    | _any_pair(ev, nv, [e0], [c_, d_], ordered=True) | _any_pair(ev, nv, [e1], [a, b], ordered=True)
+                    | _any_pair(vv, nv, [a, b], [c_, d_]))
+            stencils = np.concatenate([face_stencils, np.column_stack([a, b, c_, d_])[kept]])
         d = self.dim
-        stencils = np.array(kept, dtype=np.int64).reshape(-1, d + 1)
-        m, nv = stencils.shape[1], self._cm.num_vertices
+        stencils = stencils.astype(np.int64).reshape(-1, d + 1)
+        m = stencils.shape[1]
         vi, vj = np.repeat(stencils, m, axis=1).ravel(), np.tile(stencils, (1, m)).ravel()
         pairs = sp.csr_matrix((np.ones(len(vi)), (vi, vj)), shape=(nv, nv))
         # vertex pairs -> their d x d DOF blocks (dof = vertex d + component), then to full DOFs
