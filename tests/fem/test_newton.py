@@ -50,6 +50,30 @@ def test_the_free_block_is_scipys_fancy_index(sort):
     assert np.array_equal(got.data, ref.data)
 
 
+@pytest.mark.parametrize("count", [1, 2, 3, 4])
+def test_the_free_block_of_the_sum_is_the_block_of_scipys_sum(count):
+    """The compiled sum-and-block: with stored zeros, entries that cancel to exactly 0 (SciPy's
+    addition drops them), a stabilisation at scale 0 and one at a positive scale, the same
+    entries, in the same order, with the same values as the block of the summed Hessians; and
+    the same where a matrix is not canonical (SciPy's route)."""
+    from hydrojam.fem.newton import _free_block, _free_sum
+
+    n = 80
+    stiff, coupling = _random(n, 0.1, 5, zeros=6), _random(n, 0.03, 6)
+    cancel = sp.csr_matrix(stiff.multiply(sp.random(n, n, density=0.3, random_state=np.random.default_rng(7)) > 0))
+    coupling = (coupling - cancel - cancel.T).tocsr()  # cancels some of stiff's entries exactly
+    mats = [stiff, coupling, sp.diags(np.zeros(n), format="csr"), sp.diags(np.linspace(0.5, 1.0, n), format="csr")]
+    fidx = np.flatnonzero(np.random.default_rng(8).random(n) < 0.7)
+    unsorted = sp.csr_matrix((stiff.data[::-1], stiff.indices[::-1], stiff.indptr), shape=stiff.shape)
+    for ms in (mats[:count], [unsorted, *mats[1:count]]):
+        ref = _free_block(_sum_hessians(ms), fidx)
+        got = _free_sum(ms, fidx)
+        assert got.shape == ref.shape
+        assert np.array_equal(got.indptr, ref.indptr) and np.array_equal(got.indices, ref.indices)
+        assert np.array_equal(got.data, ref.data)
+    assert count < 2 or (stiff + coupling).nnz < stiff.nnz + coupling.nnz - 10  # entries did cancel
+
+
 class _Quadratic(EnergyTerm):
     """``C + g0 . (x - x0) + |x - x0|^2 / 2`` [mJ] on every DOF of x (n, 1): gradient g0 at x0,
     Hessian I. ``finite_only_at_start``: the energy is infinite everywhere but at x0 (every move

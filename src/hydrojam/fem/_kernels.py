@@ -225,3 +225,45 @@ def free_block(indptr, indices, data, rows, position):  # pragma: no cover - com
                 val[m] = data[k]
                 m += 1
     return ptr, ind, val
+
+
+@numba.njit(cache=True)
+def free_sum(aptr, aind, adata, bptr, bind, bdata, rows, position):  # pragma: no cover - compiled
+    """The block of A + B (CSR, rows sorted, no duplicates) on the rows ``rows`` and the columns
+    with ``position[j] >= 0``, as :func:`free_block` takes it from SciPy's A + B: each entry the
+    sum a + b (a or b alone where the other lacks it), dropped where that is zero, as SciPy's
+    addition drops it. (indptr, indices, data) of the block, its rows sorted."""
+    nr = len(rows)
+    ptr = np.zeros(nr + 1, dtype=np.int64)
+    cap = 0
+    for i in range(nr):
+        r = rows[i]
+        cap += aptr[r + 1] - aptr[r] + bptr[r + 1] - bptr[r]
+    ind = np.empty(cap, dtype=np.int32)
+    val = np.empty(cap)
+    m = 0
+    for i in range(nr):
+        r = rows[i]
+        k, kend = aptr[r], aptr[r + 1]
+        q, qend = bptr[r], bptr[r + 1]
+        while k < kend or q < qend:
+            if q >= qend or (k < kend and aind[k] < bind[q]):
+                j = aind[k]
+                v = adata[k] + 0.0
+                k += 1
+            elif k >= kend or bind[q] < aind[k]:
+                j = bind[q]
+                v = 0.0 + bdata[q]
+                q += 1
+            else:
+                j = aind[k]
+                v = adata[k] + bdata[q]
+                k += 1
+                q += 1
+            p = position[j]
+            if p >= 0 and v != 0.0:
+                ind[m] = p
+                val[m] = v
+                m += 1
+        ptr[i + 1] = m
+    return ptr, ind[:m], val[:m]

@@ -260,6 +260,28 @@ def _free_block(H, fidx: np.ndarray) -> sp.csr_matrix:
     return sp.csr_matrix((val, ind, ptr), shape=(len(fidx), len(fidx)))
 
 
+def _free_sum(matrices, fidx: np.ndarray) -> sp.csr_matrix:
+    """``_free_block(_sum_hessians(matrices), fidx)``, the same entries to the bit, with the first
+    two matrices added and cut to the free block in one compiled pass where both are canonical
+    (sorted rows, no duplicates), as the elastic and contact Hessians are: the sum of the whole
+    matrices and its block were two passes over every entry of the elastic Hessian."""
+    matrices = [sp.csr_matrix(m) for m in matrices]
+    if len(matrices) == 1 or not all(m.has_canonical_format for m in matrices[:2]):
+        return _free_block(_sum_hessians(matrices), fidx)
+    from hydrojam.fem import _kernels
+
+    (a, b), n = matrices[:2], matrices[0].shape[1]
+    position = np.full(n, -1, dtype=np.int64)
+    position[fidx] = np.arange(len(fidx))
+    ptr, ind, val = _kernels.free_sum(a.indptr, a.indices, a.data, b.indptr, b.indices, b.data,
+                                      fidx.astype(np.int64), position)
+    total = sp.csr_matrix((val, ind, ptr), shape=(len(fidx), len(fidx)))
+    for m in matrices[2:]:
+        if m.nnz and np.any(m.data):
+            total = total + _free_block(m, fidx)
+    return total
+
+
 def _reach(terms, xs, fidx):
     """The linear solver's hint (:meth:`LinearSolver.solve`'s ``reach``): a callable giving the
     free block of the terms' Hessian patterns near xs, made only when asked (None where no term
@@ -314,8 +336,7 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
             # the barrier's own negative curvature (b'(d) times the curvature of the distance)
             # is what makes a contact Hessian indefinite: project it per contact, as IPC does,
             # before damping the whole system (docs/solver.md, "Choices")
-            H = _sum_hessians(t.hessian(xs, True) if t.fallback_projection else h for t, h in zip(terms, hessians))
-            Hff = _free_block(H, fidx)
+            Hff = _free_sum([t.hessian(xs, True) if t.fallback_projection else h for t, h in zip(terms, hessians)], fidx)
             tau, projected = lm, True
         K = Hff + sp.diags(tau * hdiag + eps, format="csr")
         cand, indefinite = _accurate_solution(K, g, r, reach, solver, options)
@@ -520,7 +541,7 @@ def negative_curvature(
     fidx = np.flatnonzero(free)
     if fidx.size == 0:
         return 0
-    Hff = _free_block(_sum_hessians(t.hessian(xs, False) for t in terms), fidx)
+    Hff = _free_sum([t.hessian(xs, False) for t in terms], fidx)
     hdiag = abs(Hff.diagonal())
     K = Hff + sp.diags(np.full(len(fidx), options.regularisation * hdiag.mean()), format="csr")
     try:
@@ -572,7 +593,7 @@ def lowest_mode(
     """
     xs = np.asarray(x, dtype=float)
     fidx = np.flatnonzero(free)
-    H = _free_block(_sum_hessians(t.hessian(xs, False) for t in terms), fidx)
+    H = _free_sum([t.hessian(xs, False) for t in terms], fidx)
     hdiag = abs(H.diagonal())
     H = H + sp.diags(np.full(len(fidx), options.regularisation * hdiag.mean()), format="csr")
     block = 3
@@ -580,7 +601,7 @@ def lowest_mode(
         w, V = np.linalg.eigh(H.toarray())
         value, vec = float(w[0]), V[:, 0]
     else:
-        P = _free_block(_sum_hessians(t.hessian(xs, True) for t in terms), fidx)
+        P = _free_sum([t.hessian(xs, True) for t in terms], fidx)
         P = P + sp.diags(np.full(len(fidx), _MODE_SHIFT * hdiag.mean()), format="csr")
         solver.solve(P, np.ones(len(fidx)))
 
@@ -650,7 +671,7 @@ def minimize(
         projected = projected and options.fallback_start in ("projected", "remembered")
         hessians = [t.hessian(xs, options.projection == "always" or (projected and t.fallback_projection))
                     for t in terms]
-        Hff = _free_block(_sum_hessians(hessians), fidx)
+        Hff = _free_sum(hessians, fidx)
         tm.assembly += time.perf_counter() - t0
         t0 = time.perf_counter()
         hdiag = abs(Hff.diagonal())
