@@ -4,7 +4,7 @@ control, stabilisation, its release at s = 1) does to them and to the answer (is
 Run:  .venv/bin/python benchmarks/path.py [--variant NAME ...] [--design one_layer|default|default_3d ...]
                                           [--seeds 0 1 2 | --replicas N [--workers 2]]
                                           [--set friction=0.01 ...] [--steps] [--trace PREFIX]
-                                          [--model-check N]
+                                          [--model-check N] [--pieces]
 
 For every variant and design it prints Newton iterations on the load path and in the release of
 the stabilisation (with its rounds: damping scale and iterations), all Newton iterations (the
@@ -21,7 +21,8 @@ test of whether a faster path samples the same distribution of equilibria as the
 step as it is accepted and, at the end, with its damping scale and failed attempts, and of every
 release round. ``--trace`` writes every Newton iteration (benchmarks/_trace.py); ``--model-check N``
 measures at every N-th how far the quadratic model holds along the step, term by term
-(benchmarks/_model_check.py). ``default_3d`` is
+(benchmarks/_model_check.py); ``--pieces`` times the pieces of the iterations
+(benchmarks/_pieces.py). ``default_3d`` is
 the default design in 3D at the quick mesh (half model, 4 mm): about 6 CPU minutes a run.
 
 Iteration counts are deterministic; wall times are disturbed by whatever else runs (the load is
@@ -45,6 +46,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import print_load, table  # noqa: E402
 from _model_check import ModelCheck  # noqa: E402
+from _pieces import PieceTimer  # noqa: E402
 from _trace import IterationTrace  # noqa: E402
 
 import hydrojam.actuator.simulate as simulate_module  # noqa: E402
@@ -134,7 +136,8 @@ def label_of(seed: int | None, replica: int | None) -> str:
 
 
 def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tuple[str, ...] = (),
-        replica: int | None = None, count: int = 1, trace: str | None = None, model_check: int = 0) -> list[str]:
+        replica: int | None = None, count: int = 1, trace: str | None = None, model_check: int = 0,
+        pieces: bool = False) -> list[str]:
     sim_kw = _simulate_kwargs(variant)
     d = apply_overrides(default_design(), [*DESIGNS[design], *overrides])
     if replica is not None:
@@ -156,6 +159,7 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
         setattr(LinearSolver, k, v)
     tracer = IterationTrace() if trace else None
     checker = ModelCheck(model_check) if model_check else None
+    timer = PieceTimer() if pieces else None
     try:
         t0 = time.perf_counter()
         calls = []
@@ -173,6 +177,8 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
             tracer.install()
         if checker is not None:
             checker.install()
+        if timer is not None:
+            timer.install()
         res = simulate_module.simulate(model, on_step=on_step, **sim_kw)
         wall = time.perf_counter() - t0
     finally:
@@ -181,8 +187,12 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
             setattr(LinearSolver, k, v)
         if checker is not None:
             checker.uninstall()
+        if timer is not None:
+            timer.uninstall()
         if tracer is not None:
             tracer.uninstall()
+    if timer is not None:
+        print(timer.summary(f"{design} {variant} {label_of(seed, replica)}", wall), flush=True)
     if checker is not None:
         print(checker.summary(f"{design} {variant} {label_of(seed, replica)}"), flush=True)
     if tracer is not None:
@@ -232,6 +242,8 @@ def main(argv=None) -> int:
     ap.add_argument("--model-check", type=int, default=0, metavar="N", help="at every N-th Newton iteration, "
                     "measure each energy term's deviation from the quadratic model along the step and print "
                     "where the model fails (benchmarks/_model_check.py)")
+    ap.add_argument("--pieces", action="store_true", help="time the pieces of the Newton iterations (the Hessians, "
+                    "the linear solver's calls, the CCD, ...) and print their shares of the wall (benchmarks/_pieces.py)")
     args = ap.parse_args(argv)
     print_load()
     if args.overrides:
@@ -239,7 +251,7 @@ def main(argv=None) -> int:
     if args.model_check < 0:
         ap.error(f"--model-check must be 0 (off) or a positive integer, got {args.model_check}")
     jobs = [(design, variant, seed, args.steps, tuple(args.overrides), rep, max(args.replicas, 1), args.trace,
-             args.model_check)
+             args.model_check, args.pieces)
             for variant in args.variant for design in args.design
             for seed in (args.seeds if not args.replicas else [None]) or [None]
             for rep in (range(args.replicas) if args.replicas else [None])]

@@ -55,6 +55,25 @@ def test_the_iteration_trace_records_every_newton_iteration_and_restores_the_sol
     assert "iterations over 1 steps" in trace.summary("quartic")
 
 
+def test_the_piece_timer_counts_the_pieces_of_a_minimisation_and_restores_them():
+    """Installed, the timer counts every direction and PARDISO call of a minimisation and prints
+    them costliest first; uninstalled, every wrapped piece is the original again."""
+    from _pieces import PIECES, PieceTimer
+
+    saved = [getattr(owner, name) for owner, name in PIECES]
+    timer = PieceTimer()
+    timer.install()
+    try:
+        res = minimize([_Quartic()], np.full((4, 1), 3.0), np.ones(4, dtype=bool), 1.0)
+    finally:
+        timer.uninstall()
+    assert res.converged
+    assert timer.calls["newton._direction"] == res.iterations > 0
+    assert [getattr(owner, name) for owner, name in PIECES] == saved
+    text = timer.summary("quartic", wall=1.0)
+    assert "newton._direction" in text and "ms a call" in text
+
+
 def test_the_replica_tables_are_written_as_markdown_with_their_conditions(tmp_path):
     """``path.py --markdown``: a line of conditions naming the command and the commit, then per
     design a table whose mean, spread, extremes and per-run values are the rows' own."""
