@@ -419,7 +419,7 @@ class Contact(EnergyTerm):
         vi, vj = np.repeat(stencils, m, axis=1).ravel(), np.tile(stencils, (1, m)).ravel()
         pairs = sp.csr_matrix((np.ones(len(vi)), (vi, vj)), shape=(nv, nv))
         # vertex pairs -> their d x d DOF blocks (dof = vertex d + component), then to full DOFs
-        P = sp.csr_matrix(self._cm.to_full_dof(sp.kron(pairs, np.ones((d, d)), format="csc")))
+        P = self._to_full(sp.kron(pairs, np.ones((d, d)), format="csc"))
         P.data[:] = 1.0
         return P
 
