@@ -34,6 +34,15 @@ class _Quartic(EnergyTerm):
         return sp.diags(3 * u**2 + 1.0, format="csr")
 
 
+def _minimised_with(instrument):
+    """The quartic minimised from x = 3 with ``instrument`` (install/uninstall) installed."""
+    instrument.install()
+    try:
+        return minimize([_Quartic()], np.full((4, 1), 3.0), np.ones(4, dtype=bool), 1.0)
+    finally:
+        instrument.uninstall()
+
+
 def test_the_iteration_trace_records_every_newton_iteration_and_restores_the_solver():
     """Installed, the trace sees every iteration of a minimisation (with the linear solver's reach
     hint passed through) and writes its columns; uninstalled, Newton's helpers are back."""
@@ -42,11 +51,7 @@ def test_the_iteration_trace_records_every_newton_iteration_and_restores_the_sol
     saved = (newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
              LinearSolver.resolve)
     trace = IterationTrace()
-    trace.install()
-    try:
-        res = minimize([_Quartic()], np.full((4, 1), 3.0), np.ones(4, dtype=bool), 1.0)
-    finally:
-        trace.uninstall()
+    res = _minimised_with(trace)
     assert res.converged and res.iterations == len(trace.rows) > 0
     assert all(set(row) == set(FIELDS) for row in trace.rows)
     assert all(row["solves"] >= 1 and row["substitutions"] == 0 and row["projected"] == 0 for row in trace.rows)
@@ -62,11 +67,7 @@ def test_the_piece_timer_counts_the_pieces_of_a_minimisation_and_restores_them()
 
     saved = [getattr(owner, name) for owner, name in PIECES]
     timer = PieceTimer()
-    timer.install()
-    try:
-        res = minimize([_Quartic()], np.full((4, 1), 3.0), np.ones(4, dtype=bool), 1.0)
-    finally:
-        timer.uninstall()
+    res = _minimised_with(timer)
     assert res.converged
     assert timer.calls["newton._direction"] == res.iterations > 0
     assert [getattr(owner, name) for owner, name in PIECES] == saved
