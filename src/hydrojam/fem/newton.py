@@ -245,6 +245,13 @@ def _sum_hessians(matrices) -> sp.csr_matrix:
     return total
 
 
+def _positions(n: int, fidx: np.ndarray) -> np.ndarray:
+    """Each of n DOFs' index among the free DOFs ``fidx`` (ascending), -1 where it is fixed."""
+    position = np.full(n, -1, dtype=np.int64)
+    position[fidx] = np.arange(len(fidx))
+    return position
+
+
 def _free_block(H, fidx: np.ndarray) -> sp.csr_matrix:
     """H's block on the free DOFs ``fidx`` (ascending): SciPy's ``H[fidx][:, fidx]`` (the same
     entries in the same order, so the same bits downstream) in one compiled pass instead of two
@@ -254,9 +261,8 @@ def _free_block(H, fidx: np.ndarray) -> sp.csr_matrix:
         return H[fidx][:, fidx]
     from hydrojam.fem import _kernels
 
-    position = np.full(H.shape[1], -1, dtype=np.int64)
-    position[fidx] = np.arange(len(fidx))
-    ptr, ind, val = _kernels.free_block(H.indptr, H.indices, H.data, fidx.astype(np.int64), position)
+    ptr, ind, val = _kernels.free_block(H.indptr, H.indices, H.data, fidx.astype(np.int64),
+                                        _positions(H.shape[1], fidx))
     return sp.csr_matrix((val, ind, ptr), shape=(len(fidx), len(fidx)))
 
 
@@ -270,11 +276,9 @@ def _free_sum(matrices, fidx: np.ndarray) -> sp.csr_matrix:
         return _free_block(_sum_hessians(matrices), fidx)
     from hydrojam.fem import _kernels
 
-    (a, b), n = matrices[:2], matrices[0].shape[1]
-    position = np.full(n, -1, dtype=np.int64)
-    position[fidx] = np.arange(len(fidx))
+    a, b = matrices[:2]
     ptr, ind, val = _kernels.free_sum(a.indptr, a.indices, a.data, b.indptr, b.indices, b.data,
-                                      fidx.astype(np.int64), position)
+                                      fidx.astype(np.int64), _positions(a.shape[1], fidx))
     total = sp.csr_matrix((val, ind, ptr), shape=(len(fidx), len(fidx)))
     for m in matrices[2:]:
         if m.nnz and np.any(m.data):
