@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures
+import contextlib
 import dataclasses
 import functools
 import os
@@ -135,6 +136,22 @@ def label_of(seed: int | None, replica: int | None) -> str:
     return "-" if seed is None and replica is None else (f"r{replica}" if replica is not None else str(seed))
 
 
+@contextlib.contextmanager
+def instrumented(*instruments):
+    """The benchmark instruments (objects with ``install`` and ``uninstall``; None skipped)
+    installed in order and uninstalled in reverse: each wraps what the ones before it left, so
+    only the reverse order puts back the originals where two wrap the same function (the trace,
+    the model check and the piece timer all wrap Newton's line search)."""
+    active = [i for i in instruments if i is not None]
+    try:
+        for i in active:
+            i.install()
+        yield
+    finally:
+        for i in reversed(active):
+            i.uninstall()
+
+
 def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tuple[str, ...] = (),
         replica: int | None = None, count: int = 1, trace: str | None = None, model_check: int = 0,
         pieces: bool = False) -> list[str]:
@@ -173,24 +190,13 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
                       f"{time.perf_counter() - t0:.0f} s, {state.metrics['bending_angle_deg']:.2f} deg, "
                       f"negative eigenvalues {state.negative_eigenvalues}", flush=True)
 
-        if tracer is not None:
-            tracer.install()
-        if checker is not None:
-            checker.install()
-        if timer is not None:
-            timer.install()
-        res = simulate_module.simulate(model, on_step=on_step, **sim_kw)
+        with instrumented(tracer, checker, timer):
+            res = simulate_module.simulate(model, on_step=on_step, **sim_kw)
         wall = time.perf_counter() - t0
     finally:
         simulate_module.solve_path = original_path
         for k, v in saved_attrs.items():
             setattr(LinearSolver, k, v)
-        if checker is not None:
-            checker.uninstall()
-        if timer is not None:
-            timer.uninstall()
-        if tracer is not None:
-            tracer.uninstall()
     if timer is not None:
         print(timer.summary(f"{design} {variant} {label_of(seed, replica)}", wall), flush=True)
     if checker is not None:

@@ -34,13 +34,12 @@ class _Quartic(EnergyTerm):
         return sp.diags(3 * u**2 + 1.0, format="csr")
 
 
-def _minimised_with(instrument):
-    """The quartic minimised from x = 3 with ``instrument`` (install/uninstall) installed."""
-    instrument.install()
-    try:
+def _minimised_with(*instruments):
+    """The quartic minimised from x = 3 with ``instruments`` installed (``path.instrumented``)."""
+    import path as path_benchmark
+
+    with path_benchmark.instrumented(*instruments):
         return minimize([_Quartic()], np.full((4, 1), 3.0), np.ones(4, dtype=bool), 1.0)
-    finally:
-        instrument.uninstall()
 
 
 def test_the_iteration_trace_records_every_newton_iteration_and_restores_the_solver():
@@ -73,6 +72,25 @@ def test_the_piece_timer_counts_the_pieces_of_a_minimisation_and_restores_them()
     assert [getattr(owner, name) for owner, name in PIECES] == saved
     text = timer.summary("quartic", wall=1.0)
     assert "newton._direction" in text and "ms a call" in text
+
+
+def test_instruments_that_wrap_the_same_function_are_all_undone():
+    """``path.py`` installs the trace, the model check and the piece timer together; all three
+    wrap Newton's line search, so only uninstalling in reverse puts every original back."""
+    import hydrojam.fem.newton as newton
+    from _model_check import ModelCheck
+    from _pieces import PIECES, PieceTimer
+
+    def wrapped():
+        return [getattr(owner, name) for owner, name in PIECES] + [newton._marquardt_update, LinearSolver.solve]
+
+    saved = wrapped()
+    checker, timer = ModelCheck(1), PieceTimer()
+    res = _minimised_with(None, checker, timer)  # no trace to restore the originals last
+    assert res.converged and timer.calls["newton._line_search"] > 0
+    assert wrapped() == saved
+    _minimised_with(IterationTrace(), ModelCheck(1), PieceTimer())
+    assert wrapped() == saved
 
 
 def test_the_replica_tables_are_written_as_markdown_with_their_conditions(tmp_path):
