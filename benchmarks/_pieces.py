@@ -2,7 +2,8 @@
 timers wrapped around the pieces of a Newton iteration (the Hessians, their sum and free block,
 the linear solver's pattern bookkeeping and PARDISO's calls, the contact's CCD, reach pattern,
 energies and collision sets, the line search and the curvature step), read from outside like
-the trace. Nested pieces overlap (PARDISO's calls lie within the direction, the reach within the
+the trace. PARDISO's calls are split by phase (analysis, factorisation, substitution) and by
+matrix type (the LDL^T, the Cholesky), with the factorisations it refused apart. Nested pieces overlap (PARDISO's calls lie within the direction, the reach within the
 union pattern), so the shares do not add up to 100 %. Unlike cProfile, the timers add next to
 nothing to the Python-heavy pieces, so their shares are those of a run without them.
 """
@@ -28,6 +29,18 @@ PIECES = [
 ]
 
 
+#: PARDISO's phases as the timer names them (``_Pardiso._call``'s second argument)
+PHASES = {11: "analysis", 12: "analysis + factorisation", 13: "analysis + factorisation + substitution",
+          22: "factorisation", 23: "factorisation + substitution", 33: "substitution"}
+
+
+def pardiso_label(handle, phase: int, *args, **kwargs) -> str:
+    """The name of one of PARDISO's calls: its phase and matrix type (mtype 2, the Cholesky;
+    -2, the LDL^T)."""
+    kind = "Cholesky" if handle.mtype == 2 else "LDL^T"
+    return f"PARDISO {PHASES.get(phase, f'phase {phase}')} ({kind})"
+
+
 class PieceTimer:
     """Wall-clock seconds and calls of each piece in :data:`PIECES` while installed."""
 
@@ -41,17 +54,28 @@ class PieceTimer:
         for owner, name in PIECES:
             original = getattr(owner, name)
             self._saved.append((owner, name, original))
-            setattr(owner, name, self._timed(original, f"{owner.__name__.split('.')[-1]}.{name}"))
+            split = pardiso_label if (owner, name) == (linsolve._Pardiso, "_call") else None
+            setattr(owner, name, self._timed(original, f"{owner.__name__.split('.')[-1]}.{name}", split))
 
-    def _timed(self, f, label: str):
+    def _timed(self, f, label: str, split=None):
+        """f timed under ``label``; with ``split(*args)``, also under the name it gives the call
+        (a refused call, one that raised, with " refused")."""
         @functools.wraps(f)
         def timed(*args, **kwargs):
             t0 = time.perf_counter()
+            failed = True
             try:
-                return f(*args, **kwargs)
+                out = f(*args, **kwargs)
+                failed = False
+                return out
             finally:
-                self.seconds[label] += time.perf_counter() - t0
+                dt = time.perf_counter() - t0
+                self.seconds[label] += dt
                 self.calls[label] += 1
+                if split is not None:
+                    part = split(*args, **kwargs) + (" refused" if failed else "")
+                    self.seconds[part] += dt
+                    self.calls[part] += 1
         return timed
 
     def uninstall(self) -> None:
@@ -62,7 +86,8 @@ class PieceTimer:
     def summary(self, label: str, wall: float) -> str:
         """The pieces, costliest first: calls, seconds, ms a call and share of ``wall`` [s]."""
         lines = [f"  {label}: where the wall time went (nested pieces overlap)"]
+        width = max(map(len, self.seconds), default=0)
         for name in sorted(self.seconds, key=self.seconds.get, reverse=True):
             s, n = self.seconds[name], self.calls[name]
-            lines.append(f"    {name:34s} {n:7d} calls {s:8.1f} s {1e3 * s / n:8.2f} ms a call {s / wall:6.1%}")
+            lines.append(f"    {name:{width}s} {n:7d} calls {s:8.1f} s {1e3 * s / n:8.2f} ms a call {s / wall:6.1%}")
         return "\n".join(lines)

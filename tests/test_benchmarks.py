@@ -60,8 +60,9 @@ def test_the_iteration_trace_records_every_newton_iteration_and_restores_the_sol
 
 
 def test_the_piece_timer_counts_the_pieces_of_a_minimisation_and_restores_them():
-    """Installed, the timer counts every direction and PARDISO call of a minimisation and prints
-    them costliest first; uninstalled, every wrapped piece is the original again."""
+    """Installed, the timer counts every direction and PARDISO call of a minimisation, PARDISO's
+    calls also phase by phase (their counts and seconds add up to the calls'), and prints them
+    costliest first; uninstalled, every wrapped piece is the original again."""
     from _pieces import PIECES, PieceTimer
 
     saved = [getattr(owner, name) for owner, name in PIECES]
@@ -69,9 +70,35 @@ def test_the_piece_timer_counts_the_pieces_of_a_minimisation_and_restores_them()
     res = _minimised_with(timer)
     assert res.converged
     assert timer.calls["newton._direction"] == res.iterations > 0
+    phases = [name for name in timer.calls if name.startswith("PARDISO ")]
+    # the quartic's one pattern: analysed once (phase 13), then refactorised (phase 23)
+    assert timer.calls["PARDISO analysis + factorisation + substitution (LDL^T)"] == 1
+    assert timer.calls["PARDISO factorisation + substitution (LDL^T)"] == res.iterations - 1
+    assert sum(timer.calls[p] for p in phases) == timer.calls["_Pardiso._call"]
+    assert sum(timer.seconds[p] for p in phases) == pytest.approx(timer.seconds["_Pardiso._call"], rel=1e-9)
     assert [getattr(owner, name) for owner, name in PIECES] == saved
     text = timer.summary("quartic", wall=1.0)
     assert "newton._direction" in text and "ms a call" in text
+
+
+def test_the_piece_timer_names_a_pardiso_call_by_phase_and_keeps_refused_ones_apart():
+    """A call that raises (PARDISO refusing a Cholesky) is counted under its phase with
+    " refused", and the exception goes on to the caller."""
+    from types import SimpleNamespace
+
+    from _pieces import PieceTimer, pardiso_label
+
+    def refuse(handle, phase, *args):
+        raise RuntimeError("not positive definite")
+
+    timer = PieceTimer()
+    timed = timer._timed(refuse, "_Pardiso._call", pardiso_label)
+    with pytest.raises(RuntimeError):
+        timed(SimpleNamespace(mtype=2), 23)
+    timed_ok = timer._timed(lambda handle, phase, *a: None, "_Pardiso._call", pardiso_label)
+    timed_ok(SimpleNamespace(mtype=2), 11)
+    assert timer.calls == {"_Pardiso._call": 2, "PARDISO factorisation + substitution (Cholesky) refused": 1,
+                           "PARDISO analysis (Cholesky)": 1}
 
 
 def test_instruments_that_wrap_the_same_function_are_all_undone():
