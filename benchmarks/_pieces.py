@@ -3,8 +3,9 @@ timers wrapped around the pieces of a Newton iteration (the Hessians, their sum 
 the linear solver's pattern bookkeeping and PARDISO's calls, the contact's CCD, reach pattern,
 energies and collision sets, the line search and the curvature step), read from outside like
 the trace. PARDISO's calls are split by phase (analysis, factorisation, substitution) and by
-matrix type (the LDL^T, the Cholesky), with the factorisations it refused apart. Nested pieces overlap (PARDISO's calls lie within the direction, the reach within the
-union pattern), so the shares do not add up to 100 %. Unlike cProfile, the timers add next to
+matrix type (the LDL^T, the Cholesky), with the factorisations it refused apart. Nested pieces
+overlap (PARDISO's calls lie within the direction, the reach within the union pattern), so the
+shares do not add up to 100 %. Unlike cProfile, the timers add next to
 nothing to the Python-heavy pieces, so their shares are those of a run without them.
 """
 
