@@ -42,6 +42,11 @@ def pardiso_label(handle, phase: int, *args, **kwargs) -> str:
     return f"PARDISO {PHASES.get(phase, f'phase {phase}')} ({kind})"
 
 
+#: pieces whose calls are also timed under a name of their own: (owner, attribute) -> the
+#: function that names a call from its arguments
+SPLITS = {(linsolve._Pardiso, "_call"): pardiso_label}
+
+
 class PieceTimer:
     """Wall-clock seconds and calls of each piece in :data:`PIECES` while installed."""
 
@@ -55,8 +60,8 @@ class PieceTimer:
         for owner, name in PIECES:
             original = getattr(owner, name)
             self._saved.append((owner, name, original))
-            split = pardiso_label if (owner, name) == (linsolve._Pardiso, "_call") else None
-            setattr(owner, name, self._timed(original, f"{owner.__name__.split('.')[-1]}.{name}", split))
+            setattr(owner, name, self._timed(original, f"{owner.__name__.split('.')[-1]}.{name}",
+                                             SPLITS.get((owner, name))))
 
     def _timed(self, f, label: str, split=None):
         """f timed under ``label``; with ``split(*args)``, also under the name it gives the call
@@ -64,11 +69,12 @@ class PieceTimer:
         @functools.wraps(f)
         def timed(*args, **kwargs):
             t0 = time.perf_counter()
-            failed = True
+            failed = False
             try:
-                out = f(*args, **kwargs)
-                failed = False
-                return out
+                return f(*args, **kwargs)
+            except BaseException:
+                failed = True
+                raise
             finally:
                 dt = time.perf_counter() - t0
                 self.seconds[label] += dt
