@@ -11,11 +11,13 @@ runs, evaluates each energy term along the direction d at a = 1/4, 1/2 and 1 of 
   (``barrier, pairs at x``: those pairs' barrier evaluated at x + a d, against their own model),
   the barrier of pairs that are new at x + a d (``barrier, new pairs``) and the lagged friction
   (``friction``, the rest);
-- for every pair found at x, its gap's relative change (d(x + d) - d(x)) / d(x) along the capped step.
+- for every pair found at x, its own barrier's deviation from its own quadratic model at the
+  capped step, and its gap before and after that step.
 
 The summary gives the medians and 90 % quantiles, and, among the iterations whose whole deviation
 at the capped step exceeds a quarter of the model's decrease (the model no longer describes the
-step), which piece was the largest. The extra evaluations (one Hessian per term, three energies)
+step), which piece was the largest, how many pairs (the largest deviations first) account for
+the excess, and whether the largest one closes, opens or leaves the barrier's range. The extra evaluations (one Hessian per term, three energies)
 make a checked iteration about twice as expensive; the path itself is untouched.
 """
 
@@ -62,12 +64,13 @@ def term_deviations(terms, x: np.ndarray, step: np.ndarray, shape, cap: float,
         (:data:`CONTACT_PIECES`).
     models : dict
         ``a -> the whole quadratic model's change [mJ]`` at a x cap.
-    gap_change : ndarray
-        For every contact pair at x: (d(x + cap step) - d(x)) / d(x).
+    pairs : ndarray, shape (n, 3)
+        For every contact pair at x: its barrier's deviation from its own quadratic model at the
+        capped step [mJ], and its gap at x and at x + cap step, both over dhat.
     """
     X = x.reshape(shape)
     dev, models = {}, collections.Counter()
-    gaps = []
+    pairs = []
     for t in terms:
         e0 = t.energy(X)
         gd = float(t.gradient(X).ravel() @ step)
@@ -95,14 +98,34 @@ def term_deviations(terms, x: np.ndarray, step: np.ndarray, shape, cap: float,
             dev[(CONTACT_PIECES[0], a)] = fixed - b0 - model
             dev[(CONTACT_PIECES[1], a)] = full - fixed
             dev[(CONTACT_PIECES[2], a)] = dev[(t.name, a)] - (full - b0 - model)
-        V1 = c._vertices((x + cap * step).reshape(shape))
-        E, F = c._cm.edges, c._cm.faces
+        D = c._vertices((x + cap * step).reshape(shape)) - V0
+        E, F, b, dhat = c._cm.edges, c._cm.faces, c._barrier, c.settings.dhat
         for group in (col0.vv_collisions, col0.ev_collisions, col0.fv_collisions, col0.ee_collisions):
             for k in group:
-                d0 = np.sqrt(k.compute_distance(k.dof(V0, E, F)))
-                d1 = np.sqrt(max(k.compute_distance(k.dof(V1, E, F)), 0.0))
-                gaps.append((d1 - d0) / d0)
-    return dev, dict(models), np.array(gaps)
+                xk, dk = k.dof(V0, E, F), k.dof(D, E, F)
+                model = float(b.gradient(k, xk) @ dk + 0.5 * dk @ (b.hessian(k, xk) @ dk))
+                pairs.append((b(k, xk + dk) - b(k, xk) - model, np.sqrt(k.compute_distance(xk)) / dhat,
+                              np.sqrt(max(k.compute_distance(xk + dk), 0.0)) / dhat))
+    return dev, dict(models), np.array(pairs, dtype=float).reshape(-1, 3)
+
+
+#: the most pairs :func:`pairs_accounting` counts before it says "more"
+MOST_PAIRS = 3
+
+
+def pairs_accounting(total: float, pair_deviations: np.ndarray, bound: float) -> int | None:
+    """How many pairs, the largest deviations first, must be taken out of a step's whole deviation
+    ``total`` [mJ] to bring it within ``bound`` [mJ]: 0 to :data:`MOST_PAIRS`, None beyond."""
+    order = np.argsort(-np.abs(pair_deviations), kind="stable")
+    rest = total - np.concatenate([[0.0], np.cumsum(pair_deviations[order])])
+    within = np.flatnonzero(np.abs(rest[:MOST_PAIRS + 1]) <= bound)
+    return int(within[0]) if within.size else None
+
+
+def pair_move(d0: float, d1: float) -> str:
+    """What a pair's gap does over a step, both gaps over dhat: it leaves the barrier's range
+    (d1 >= 1), closes, or opens within it."""
+    return "leaves dhat" if d1 >= 1.0 else ("closes" if d1 < d0 else "opens within dhat")
 
 
 class ModelCheck:
@@ -113,7 +136,7 @@ class ModelCheck:
             raise ValueError(f"every must be a positive integer, got {every}")
         self.every = every
         self.samples: list[tuple[dict, dict]] = []
-        self.gaps: list[np.ndarray] = []
+        self.pairs: list[np.ndarray] = []
         self._calls = 0
         self._saved = None
 
@@ -124,9 +147,9 @@ class ModelCheck:
         def checked(terms, x, E, step, slope, shape, alpha, options, *rest):
             self._calls += 1
             if self._calls % self.every == 0:
-                dev, models, gaps = term_deviations(terms, x, step, shape, alpha)
+                dev, models, pairs = term_deviations(terms, x, step, shape, alpha)
                 self.samples.append((dev, models))
-                self.gaps.append(gaps)
+                self.pairs.append(pairs)
             return line_search(terms, x, E, step, slope, shape, alpha, options, *rest)
 
         newton._line_search = checked
@@ -161,16 +184,26 @@ class ModelCheck:
             lines.append(f"    at {a:g} of the capped step: " + "; ".join(parts))
         leaves = [n for n in names if n != "contact"] if any(n in CONTACT_PIECES for n in names) else names
         worst, failed = collections.Counter(), 0
-        for dev, m in self.samples:
+        explained, moves = collections.Counter(), collections.Counter()
+        for (dev, m), pairs in zip(self.samples, self.pairs):
             total = sum(dev[(n, 1.0)] for n in leaves if (n, 1.0) in dev)
             if abs(total) > 0.25 * abs(m[1.0]):
                 failed += 1
                 worst[max((n for n in leaves if (n, 1.0) in dev), key=lambda n: abs(dev[(n, 1.0)]))] += 1
+                if len(pairs):
+                    n = pairs_accounting(total, pairs[:, 0], 0.25 * abs(m[1.0]))
+                    explained[f"{n}" if n is not None else f"more than {MOST_PAIRS}"] += 1
+                    moves[pair_move(*pairs[np.argmax(np.abs(pairs[:, 0])), 1:])] += 1
         lines.append(f"    the model off by more than a quarter at the capped step in {failed} of "
                      f"{len(self.samples)}; the largest piece there: "
                      + (", ".join(f"{n} {k}" for n, k in worst.most_common()) or "-"))
-        gaps = np.concatenate(self.gaps) if self.gaps else np.zeros(0)
-        if gaps.size:
+        if explained:
+            lines.append("    there, the pairs (the largest deviations first) that account for the excess: "
+                         + ", ".join(f"{n} in {k}" for n, k in sorted(explained.items()))
+                         + "; the largest pair " + ", ".join(f"{n} in {k}" for n, k in moves.most_common()))
+        pairs = np.concatenate(self.pairs) if self.pairs else np.zeros((0, 3))
+        if len(pairs):
+            gaps = (pairs[:, 2] - pairs[:, 1]) / pairs[:, 1]
             lines.append(f"    contact pairs' gap change over the capped step, |(d1 - d0) / d0|: median "
                          f"{np.median(np.abs(gaps)):.2g}, 90 % {np.quantile(np.abs(gaps), 0.9):.2g}; closing by more "
                          f"than 30 %: {np.mean(gaps < -0.3):.2%} of {gaps.size} pair samples "

@@ -232,14 +232,14 @@ def test_the_model_check_measures_each_terms_deviation_from_its_quadratic_model(
     from _model_check import ModelCheck, term_deviations
 
     x, step, cap = np.full(4, 3.0), np.full(4, -1.5), 0.5
-    dev, models, gaps = term_deviations([_Quartic()], x, step, (4, 1), cap)
+    dev, models, pairs = term_deviations([_Quartic()], x, step, (4, 1), cap)
     for a in (0.25, 0.5, 1.0):
         hd = a * cap * -1.5
         model = 4 * (hd * (2.0**3 + 2.0) + 0.5 * hd**2 * (3 * 2.0**2 + 1))
         assert models[a] == pytest.approx(model, rel=1e-12)
         # the energies are O(10) mJ: their difference is exact to about 1e-14 mJ
         assert dev[("quartic", a)] == pytest.approx(4 * (2.0 * hd**3 + hd**4 / 4), rel=1e-9, abs=1e-12)
-    assert gaps.size == 0
+    assert pairs.shape == (0, 3)
 
     import hydrojam.fem.newton as newton
 
@@ -253,7 +253,7 @@ def test_the_model_check_measures_each_terms_deviation_from_its_quadratic_model(
     assert "the quadratic model along" in check.summary("quartic")
 
 
-def test_the_model_check_splits_the_contact_and_measures_its_gaps():
+def test_the_model_check_splits_the_contact_and_measures_each_pair():
     """Two parallel segments at gap g, one moved towards the other by delta: the same pairs at
     every fraction, no friction, every gap closing by delta / g, and the barrier's deviation that
     of ipctk's clamped log barrier on squared distances, B(s) = -(s - S)^2 ln(s / S), scaled by
@@ -267,7 +267,7 @@ def test_the_model_check_splits_the_contact_and_measures_its_gaps():
     contact = Contact(X, np.array([[0, 1], [2, 3]]), np.array([0, 0, 1, 1]), ContactSettings(dhat=dhat, kappa=1.0))
     step = np.zeros(8)
     step[[5, 7]] = -delta
-    dev, models, gaps = term_deviations([contact], X.ravel(), step, X.shape, 1.0)
+    dev, models, pairs = term_deviations([contact], X.ravel(), step, X.shape, 1.0)
     S = dhat**2
 
     def B(d):
@@ -290,9 +290,29 @@ def test_the_model_check_splits_the_contact_and_measures_its_gaps():
         assert dev[("contact", a)] == pytest.approx(expected, rel=1e-8)
         assert dev[("barrier, pairs at x", a)] == pytest.approx(expected, rel=1e-8)
         assert dev[("barrier, new pairs", a)] == 0.0 and abs(dev[("friction", a)]) <= 1e-12 * abs(models[a])
-    np.testing.assert_allclose(gaps, -delta / g, rtol=1e-12)
+    # each pair's own deviation: together the pairs' barrier's, every gap from g to g - delta
+    assert pairs[:, 0].sum() == pytest.approx(dev[("barrier, pairs at x", 1.0)], rel=1e-8)
+    np.testing.assert_allclose(pairs[:, 1:], np.tile([g / dhat, (g - delta) / dhat], (len(pairs), 1)), rtol=1e-12)
 
     check = ModelCheck(1)  # and its summary names the pieces
-    check.samples, check.gaps = [(dev, models)], [gaps]
+    check.samples, check.pairs = [(dev, models)], [pairs]
     text = check.summary("two segments")
     assert "barrier, pairs at x" in text and "closing by more than 30 %: 100.00% of 4 pair samples" in text
+    # closed to a tenth of the gap, the model is off by 0.49 of its decrease, a quarter of that on
+    # each of the four equal pairs: two of them account for the excess over a quarter
+    step[[5, 7]] = -0.045
+    dev, models, pairs = term_deviations([contact], X.ravel(), step, X.shape, 1.0)
+    assert dev[("contact", 1.0)] / models[1.0] == pytest.approx(0.49, abs=0.01)
+    check.samples, check.pairs = [(dev, models)], [pairs]
+    assert "account for the excess: 2 in 1; the largest pair closes in 1" in check.summary("two segments")
+
+
+def test_the_model_check_counts_the_pairs_behind_a_deviation():
+    """The pairs taken out largest first until the rest is within the bound, and a pair's move."""
+    from _model_check import MOST_PAIRS, pair_move, pairs_accounting
+
+    devs = np.array([6.0, -1.0, 3.0, 0.5])  # largest first: 6, 3, -1, 0.5; rests 10, 4, 1, 2, 1.5
+    assert pairs_accounting(10.0, devs, 2.0) == 2
+    assert pairs_accounting(10.0, devs, 0.5) is None and MOST_PAIRS == 3
+    assert pairs_accounting(1.0, devs, 2.0) == 0
+    assert [pair_move(0.5, d1) for d1 in (1.2, 0.3, 0.7)] == ["leaves dhat", "closes", "opens within dhat"]
