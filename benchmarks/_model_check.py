@@ -175,7 +175,7 @@ class ModelCheck:
             return f"  {label}: no iterations checked"
         names = self.pieces()
         lines = [f"  {label}: the quadratic model along {len(self.samples)} checked Newton steps "
-                 f"(every {self.every}th); |deviation| / |model decrease|, median / 90 % quantile"]
+                 f"(one in {self.every}); |deviation| / |model decrease|, median / 90 % quantile"]
         for a in FRACTIONS:
             parts = []
             for n in names:
