@@ -17,8 +17,9 @@ runs, evaluates each energy term along the direction d at a = 1/4, 1/2 and 1 of 
 The summary gives the medians and 90 % quantiles, and, among the iterations whose whole deviation
 at the capped step exceeds a quarter of the model's decrease (the model no longer describes the
 step), which piece was the largest, how many pairs (the largest deviations first) account for
-the excess, and whether the largest one closes, opens or leaves the barrier's range. The extra evaluations (one Hessian per term, three energies)
-make a checked iteration about twice as expensive; the path itself is untouched.
+the excess, and whether the largest one closes, opens or leaves the barrier's range. The extra
+evaluations (one Hessian per term, three energies, each pair's barrier at both ends) make a
+checked iteration about twice as expensive; the path itself is untouched.
 """
 
 from __future__ import annotations
@@ -191,8 +192,8 @@ class ModelCheck:
                 failed += 1
                 worst[max((n for n in leaves if (n, 1.0) in dev), key=lambda n: abs(dev[(n, 1.0)]))] += 1
                 if len(pairs):
-                    n = pairs_accounting(total, pairs[:, 0], 0.25 * abs(m[1.0]))
-                    explained[f"{n}" if n is not None else f"more than {MOST_PAIRS}"] += 1
+                    count = pairs_accounting(total, pairs[:, 0], 0.25 * abs(m[1.0]))
+                    explained[f"{count}" if count is not None else f"more than {MOST_PAIRS}"] += 1
                     moves[pair_move(*pairs[np.argmax(np.abs(pairs[:, 0])), 1:])] += 1
         lines.append(f"    the model off by more than a quarter at the capped step in {failed} of "
                      f"{len(self.samples)}; the largest piece there: "

@@ -292,7 +292,8 @@ def test_the_model_check_splits_the_contact_and_measures_each_pair():
         assert dev[("barrier, new pairs", a)] == 0.0 and abs(dev[("friction", a)]) <= 1e-12 * abs(models[a])
     # each pair's own deviation: together the pairs' barrier's, every gap from g to g - delta
     assert pairs[:, 0].sum() == pytest.approx(dev[("barrier, pairs at x", 1.0)], rel=1e-8)
-    np.testing.assert_allclose(pairs[:, 1:], np.tile([g / dhat, (g - delta) / dhat], (len(pairs), 1)), rtol=1e-12)
+    gaps = np.tile([g / dhat, (g - delta) / dhat], (len(pairs), 1))
+    np.testing.assert_allclose(pairs[:, 1:], gaps, rtol=1e-12)
 
     check = ModelCheck(1)  # and its summary names the pieces
     check.samples, check.pairs = [(dev, models)], [pairs]
