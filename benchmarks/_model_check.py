@@ -188,11 +188,12 @@ class ModelCheck:
         explained, moves = collections.Counter(), collections.Counter()
         for (dev, m), pairs in zip(self.samples, self.pairs):
             total = sum(dev[(n, 1.0)] for n in leaves if (n, 1.0) in dev)
-            if abs(total) > 0.25 * abs(m[1.0]):
+            bound = 0.25 * abs(m[1.0])
+            if abs(total) > bound:
                 failed += 1
                 worst[max((n for n in leaves if (n, 1.0) in dev), key=lambda n: abs(dev[(n, 1.0)]))] += 1
                 if len(pairs):
-                    count = pairs_accounting(total, pairs[:, 0], 0.25 * abs(m[1.0]))
+                    count = pairs_accounting(total, pairs[:, 0], bound)
                     explained[f"{count}" if count is not None else f"more than {MOST_PAIRS}"] += 1
                     moves[pair_move(*pairs[np.argmax(np.abs(pairs[:, 0])), 1:])] += 1
         lines.append(f"    the model off by more than a quarter at the capped step in {failed} of "
