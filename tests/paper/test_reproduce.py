@@ -38,7 +38,7 @@ def test_reproduce_end_to_end_from_cached_points(tmp_path):
     assert len(list((tmp_path / "figures").glob("*.png"))) == 6
     verdicts = {c.claim.id: c.verdict for c in pclaims.check_claims(table)}
     assert verdicts == {c.id: ("undetermined" if c.sweep == "strain_limit_thickness" else "agree")
-                        for c in pclaims.PAPER_CLAIMS}
+                        for c in pclaims.paper_claims(2)}
     assert "10 distinct points" in text and "compute time summed over points 10 min" in text
     assert "(this run: 0 of the 10 points computed, the others reused" in text
     # the command line over the same cache: nothing to simulate, exit status 0, report rewritten
@@ -153,8 +153,8 @@ def _cache_3d_points(out, study):
 
 def test_reproduce_3d_from_cached_points_with_the_2d_comparison(tmp_path):
     """`reproduce --dimension 3 --quick --compare-2d OUT2D` over cached points of both studies:
-    nothing is simulated; the 3D report has the verdicts, six shapes and trends figures and the
-    2D-against-3D table of the 10 designs."""
+    nothing is simulated; the 3D report has the verdicts, the shapes and trends figures of its four
+    sweeps (the strip width too) and the 2D-against-3D table of the 10 designs the 2D study shares."""
     from hydrojam.cli import main
 
     two, three = tmp_path / "two", tmp_path / "three"
@@ -164,8 +164,9 @@ def test_reproduce_3d_from_cached_points_with_the_2d_comparison(tmp_path):
     assert main(["reproduce", "--dimension", "3", "--quick", "-o", str(three), "--quiet",
                  "--compare-2d", str(two)]) == 0
     assert "paper-3d-quick" in (three / "study.toml").read_text()
-    assert len(list((three / "figures").glob("*.png"))) == 6
+    assert len(list((three / "figures").glob("*.png"))) == 8
     text = (three / "report.md").read_text(encoding="utf-8")
+    assert "| hw-angle |" in text and "strip width" in text
     assert "**quick, 3D**" in text and "## 2D against 3D" in text
     rows = [line for line in text.split("## 2D against 3D")[1].split("## Model")[0].splitlines()
             if line.startswith("| ") and not line.startswith("| point")]

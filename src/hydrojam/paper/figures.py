@@ -426,7 +426,7 @@ def write_figures(out: str | os.PathLike, table) -> list[Path]:
     """
     out = Path(out)
     written = []
-    for sw in PAPER_SWEEPS:
+    for sw in PAPER_SWEEPS:  # a sweep not in the table (another dimension's, or not run) draws nothing
         rows = rows_of(table, sw.name)
         if not rows:
             continue

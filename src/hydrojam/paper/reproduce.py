@@ -21,7 +21,7 @@ from hydrojam.paper.figures import write_figures
 from hydrojam.paper.report import write_report
 from hydrojam.paper.study import paper_study
 from hydrojam.study.sweep import PointOutcome, run_sweep
-from hydrojam.study.table import SweepTable
+from hydrojam.study.table import SweepTable, state_tables
 
 __all__ = ["reproduce"]
 
@@ -95,5 +95,6 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
     write_figures(out, table)
     report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler,
                           base=study.base, compare_2d=table_2d, compare_source=compare_2d,
-                          computed=None if report_only else len(computed), ran=not report_only)
+                          computed=None if report_only else len(computed), ran=not report_only,
+                          states=state_tables(study, out))
     return table, report
