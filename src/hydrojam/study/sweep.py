@@ -212,8 +212,8 @@ def _local_cluster(n_workers: int):
     # ":0": its HTTP server (which starts even without a dashboard) on a free port, not 8787
     # allowed-failures 1: a point whose worker dies (memory, a crash, a kill) runs once more on
     # the fresh worker the nanny starts, then is recorded as failed (a rerun of the sweep retries
-    # it); worker-saturation 1.0: a single-threaded worker holds the point it runs and no queued
-    # one, so that a worker's death counts against that point alone
+    # it); the sweep submits no more points than there are workers (_compute), so that a worker
+    # holds only the point it runs and its death counts against that point alone
     # MALLOC_TRIM_THRESHOLD_ unset: dask's 64 KiB makes glibc return every large numpy temporary
     # to the kernel, and the page faults of taking it back cost a simulation 40% more wall time
     # (docs/sweeps.md); the single-thread settings for BLAS and OpenMP stay
@@ -222,7 +222,6 @@ def _local_cluster(n_workers: int):
     # SIGINT blocked while the cluster starts: its threads, and the worker processes they start
     # (restarted ones too), never get the terminal's Ctrl-C; this process stops them
     with dask.config.set({"distributed.scheduler.allowed-failures": 1,
-                          "distributed.scheduler.worker-saturation": 1.0,
                           "distributed.nanny.pre-spawn-environ": environ}), signals_blocked():
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                                silence_logs=logging.ERROR, memory_limit=0)
@@ -360,11 +359,13 @@ def run_sweep(
                     outcome = PointOutcome.from_record(records[key], groups[key], out / "points" / key, True)
                     on_point(outcome, done, total)
         if pending:
+            in_flight = None  # a scheduler's workers: dask's queue
             if client is None:
-                cluster, client = _local_cluster(min(workers or os.cpu_count() or 1, len(pending)))
+                in_flight = min(workers or os.cpu_count() or 1, len(pending))
+                cluster, client = _local_cluster(in_flight)
             interval = PROGRESS_INTERVAL_S if progress_interval_s is None else progress_interval_s
             done = _compute(client, groups, pending, out, point_fn, records, on_point, done, total, on_running,
-                            interval, damaged)
+                            interval, damaged, in_flight)
         return write_table(study, out, records)
     finally:
         if client is not None:
@@ -439,7 +440,10 @@ def _watch_running(groups, order, out, records, on_running, interval_s, since) -
 
 
 def _compute(client, groups, pending, out, point_fn, records, on_point, done, total, on_running=None,
-             progress_interval_s=PROGRESS_INTERVAL_S, damaged=None) -> int:
+             progress_interval_s=PROGRESS_INTERVAL_S, damaged=None, in_flight=None) -> int:
+    """Run the ``pending`` points on ``client``, the most expensive first, recording each outcome
+    as it comes; at most ``in_flight`` submitted at once (None: all), so that a local worker
+    holds only the point it runs and its death counts against that point alone."""
     from distributed import as_completed
 
     order = sorted(pending, key=lambda k: -estimated_cost(groups[k][0].design))  # stable: study order on ties
@@ -448,12 +452,21 @@ def _compute(client, groups, pending, out, point_fn, records, on_point, done, to
     watcher = None if on_running is None else _watch_running(groups, order, out, records, on_running,
                                                              progress_interval_s, time.time() - 1.0)
     futures = {}
-    for rank, key in enumerate(order):
+    waiting = list(enumerate(order))
+
+    def submit():
+        rank, key = waiting.pop(0)
         fut = client.submit(_execute, point_fn, groups[key][0].design, str(out / "points" / key), key,
                             key=f"hydrojam-point-{key}-{token}", priority=len(order) - rank, pure=False)
         futures[fut] = key
+        return fut
+
     try:
-        for fut in as_completed(list(futures), loop=client.loop):
+        completed = as_completed([submit() for _ in range(min(in_flight or len(waiting), len(waiting)))],
+                                 loop=client.loop)
+        for fut in completed:
+            if waiting:
+                completed.add(submit())
             key = futures[fut]
             folder = out / "points" / key
             if fut.status == "finished":
