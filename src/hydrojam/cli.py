@@ -963,8 +963,8 @@ def status(
     """Where an output folder stands, read from its files (nothing runs): each point of its study
     (or the run) finished, failed, unfinished (the s reached; at s = 1 how far the release has
     gone) or not started, and when it was last written. A run going on in another process shows
-    as unfinished, and its lock as in use; a run whose process is gone (killed) as stopped. Rerun the command that made the folder to go on. Exit status 0, 2 for a folder
-    that is not hydrojam's.
+    as unfinished, its lock as in use; a run whose process is gone (killed) as stopped. Rerun the
+    command that made the folder to go on. Exit status 0, 2 for a folder that is not hydrojam's.
     """
     import time
 
