@@ -126,7 +126,10 @@ def test_a_signal_to_a_sweeps_process_group_is_one_line_and_frees_the_folder(tmp
     deadline = time.monotonic() + 120
     while not list(out.glob("points/*/started.txt")) and p.poll() is None and time.monotonic() < deadline:
         time.sleep(0.05)
-    os.killpg(p.pid, sig) if sig == signal.SIGINT else p.send_signal(sig)
+    if sig == signal.SIGINT:
+        os.killpg(p.pid, sig)  # a terminal's Ctrl-C
+    else:
+        p.send_signal(sig)  # kill, a batch system
     out_text, err = p.communicate(timeout=120)
     assert p.returncode == STATUS[sig], (p.returncode, err)
     _one_line(err, f"stopped by {signal.Signals(sig).name}", "0 points finished", "run the same command again")
