@@ -46,7 +46,7 @@ def test_paper_study(quick, distinct):
     points = study.points()
     assert len(points) == distinct + 2 and len({p.key for p in points}) == distinct
     base_key = study_mod.design_key(study.base)
-    assert {p.sweep for p in points if p.key == base_key} == {s.name for s in pstudy.PAPER_SWEEPS}
+    assert {p.sweep for p in points if p.key == base_key} == {s.name for s in pstudy.paper_sweeps(2)}
     assert all(p.design.mesh.size == (pstudy.QUICK_MESH_SIZE if quick else 2.0) for p in points)
 
 
@@ -75,15 +75,17 @@ def test_the_2d_study_is_unchanged_by_the_dimension(quick):
     assert pstudy.paper_base(quick, dimension=2) == pstudy.paper_base(quick)
 
 
-@pytest.mark.parametrize("quick, name, mesh, distinct", [(True, "paper-3d-quick", 4.0, 10), (False, "paper-3d", 2.0, 23)])
+@pytest.mark.parametrize("quick, name, mesh, distinct", [(True, "paper-3d-quick", 4.0, 13), (False, "paper-3d", 2.0, 28)])
 def test_the_3d_study(quick, name, mesh, distinct):
     """The 3D study: its own name, the 2D study's points on the same meshes (quick 4 mm, full
-    2 mm), spheres in the half model, and cache keys that no 2D point shares."""
+    2 mm), spheres in the half model, and cache keys that no 2D point shares; and the strip-width
+    sweep, the paper's h read as a width (3D only), at the base design's thickness."""
     study = pstudy.paper_study(quick, dimension=3)
     assert study.name == name == pstudy.study_name(quick, 3)
     assert pstudy.study_kind(name) == (quick, 3) and pstudy.study_kind(pstudy.study_name(quick)) == (quick, 2)
     assert pstudy.study_kind("my-study") is None
-    assert {s.name: s.vary for s in study.sweeps} == pstudy.paper_points(quick)
+    assert {s.name: s.vary for s in study.sweeps} == pstudy.paper_points(quick, dimension=3)
+    assert list(pstudy.paper_points(quick, dimension=3)) == [*pstudy.paper_points(quick), "strain_limit_width"]
     assert study.base == apply_overrides(pstudy.paper_base(quick), ["dimension=3"])
     assert study.base.dimension == 3 and study.base.mesh.symmetry and study.base.mesh.size == mesh
     points = study.points()
@@ -92,6 +94,10 @@ def test_the_3d_study(quick, name, mesh, distinct):
     assert not {p.key for p in points} & {p.key for p in pstudy.paper_study(quick).points()}
     two = {(p.sweep, p.index): p.design for p in pstudy.paper_study(quick).points()}
     for p in points:  # the same designs but for the dimension
+        if p.sweep == "strain_limit_width":
+            assert p.design == apply_overrides(study.base, [f"strain_limit_width={p.values['strain_limit_width']!r}"])
+            assert p.design.strain_limit_thickness == study.base.strain_limit_thickness
+            continue
         assert p.design == apply_overrides(two[(p.sweep, p.index)], ["dimension=3"])
     assert pstudy.paper_study(quick, ["temperature"], 2, dimension=3).base.replicas.count == 2
 

@@ -32,6 +32,7 @@ __all__ = [
     "paper_points",
     "paper_study",
     "paper_sweep",
+    "paper_sweeps",
     "reproduce_command",
     "study_kind",
     "study_name",
@@ -74,6 +75,10 @@ class PaperSweep:
         The paper's values and the quick subset [``unit``].
     points_noun : str
         The swept values in words, plural ("temperatures").
+    dimensions : tuple of int
+        The study dimensions the sweep runs in (the strip's width: 3D only).
+    reading : str
+        For the paper's h, which reading of it the sweep varies ("" for the other sweeps).
     """
 
     name: str  # sweep name, also the figures' file stem
@@ -85,6 +90,8 @@ class PaperSweep:
     values: tuple
     quick_values: tuple
     points_noun: str  # the swept values in words, plural ("temperatures")
+    dimensions: tuple[int, ...] = (2, 3)
+    reading: str = ""
 
 
 PAPER_SWEEPS: tuple[PaperSweep, ...] = (
@@ -94,10 +101,19 @@ PAPER_SWEEPS: tuple[PaperSweep, ...] = (
                tuple(PARTICLE_LAYERS), tuple(QUICK_PARTICLE_LAYERS), "layer counts"),
     PaperSweep("strain_limit_thickness", "strain_limit_thickness", "h", "strain-limit layer thickness h", "mm",
                "Figs. 10-11", tuple(STRAIN_LIMIT_THICKNESSES_MM), tuple(QUICK_STRAIN_LIMIT_THICKNESSES_MM),
-               "thicknesses"),
+               "thicknesses", reading="thickness"),
+    PaperSweep("strain_limit_width", "strain_limit_width", "h", "strain-limit strip width h", "mm",
+               "Figs. 10-11", tuple(STRAIN_LIMIT_THICKNESSES_MM), tuple(QUICK_STRAIN_LIMIT_THICKNESSES_MM),
+               "widths", dimensions=(3,), reading="width"),
 )
 _BY_NAME = {s.name: s for s in PAPER_SWEEPS}
 _BY_FIELD = {s.field: s for s in PAPER_SWEEPS}
+
+
+def paper_sweeps(dimension: int = 2) -> tuple[PaperSweep, ...]:
+    """The sweeps of PAPER_SWEEPS that run in a study of ``dimension`` (2 or 3), in order."""
+    dimension = _check_dimension(dimension)
+    return tuple(s for s in PAPER_SWEEPS if dimension in s.dimensions)
 
 
 def paper_sweep(name: str) -> PaperSweep:
@@ -187,17 +203,19 @@ def paper_base(quick: bool = False, replicas: int = 1, dimension: int = 2) -> De
     return with_replicas(base, replicas) if replicas != 1 else base
 
 
-def paper_points(quick: bool = False) -> dict[str, dict[str, list]]:
-    """Sweep name -> {dotted design field: values}, the paper's points (quick: a subset);
-    values in the field's unit (K, layers, mm)."""
-    return {s.name: {s.field: list(s.quick_values if quick else s.values)} for s in PAPER_SWEEPS}
+def paper_points(quick: bool = False, dimension: int = 2) -> dict[str, dict[str, list]]:
+    """Sweep name -> {dotted design field: values}, the paper's points (quick: a subset) in a
+    study of ``dimension``; values in the field's unit (K, layers, mm)."""
+    return {s.name: {s.field: list(s.quick_values if quick else s.values)} for s in paper_sweeps(dimension)}
 
 
 def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None, replicas: int = 1,
                 dimension: int = 2) -> Study:
     """The Section IV study as a :class:`hydrojam.study.spec.Study` named :func:`study_name`.
 
-    Sweeps "temperature", "particle_layers", "strain_limit_thickness" round :func:`paper_base`.
+    Sweeps "temperature", "particle_layers", "strain_limit_thickness" and, in 3D,
+    "strain_limit_width" (the paper's h read as the strip's width along y, at the base design's
+    thickness) round :func:`paper_base`.
     Replica 0 of each point is the single run's point, so a study with more replicas reuses a
     finished single-run study in the same folder. The base point (275 K, PL 5, h 8 mm) lies in all
     three. The 3D study has the 2D one's points.
@@ -223,7 +241,7 @@ def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None, replic
         Naming the allowed ones, for an unknown sweep name or dimension.
     """
     name = study_name(quick, dimension)
-    points = paper_points(quick)
+    points = paper_points(quick, dimension)
     unknown = [s for s in (sweeps or ()) if s not in points]
     if unknown:
         raise ValueError(f"unknown sweep {', '.join(map(repr, unknown))}; allowed: {', '.join(points)}")
