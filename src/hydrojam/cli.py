@@ -749,14 +749,16 @@ def reproduce(
     compare_2d: Optional[Path] = typer.Option(None, "--compare-2d", help="With --dimension 3: the output folder of the 2D study of the same kind (quick or full); the report adds a 2D-against-3D table."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes, one thread each (default: one per CPU)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of a running dask scheduler, e.g. tcp://10.0.0.5:8786."),
-    sweep: list[str] = typer.Option([], "--sweep", help="Run only this sweep (repeatable): temperature, particle_layers, strain_limit_thickness; a later run into the same folder adds the others."),
+    sweep: list[str] = typer.Option([], "--sweep", help="Run only this sweep (repeatable): temperature, particle_layers, strain_limit_thickness, and in 3D strain_limit_width (the paper's h read as the strip's width); a later run into the same folder adds the others."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
     replicas: int = typer.Option(1, "--replicas", help="Replicas per point: the table and figures give their mean and spread, and a statement agrees or disagrees only beyond the spread."),
     report_only: bool = typer.Option(False, "--report-only", help="Run nothing: the table, figures and report.md of the points finished in OUT so far, the others shown as not finished (an interim report of a study in progress)."),
+    write_results: list[Path] = typer.Option([], "--write-results", help="A Markdown page whose sections '<!-- reproduce: STUDY -->' (and 'STUDY verdicts') take the results table and verdicts, with a line of conditions (repeatable; e.g. README.md, docs/reproduce.md)."),
 ) -> None:
     """Reproduce the paper's Section IV (2D, or 3D with --dimension 3): the temperature,
-    particle-layer and strain-limit thickness sweeps, their figures and OUT/report.md (the
-    paper's statements, agree/disagree; in 3D also 2D against 3D with --compare-2d).
+    particle-layer and strain-limit thickness sweeps (in 3D also the strip width), their figures and
+    OUT/report.md (the paper's statements, agree/disagree, per state of the replicas; in 3D also 2D
+    against 3D with --compare-2d).
 
     Cached and resumable like `hydrojam sweep`. Exit status 0 when every point converged (with
     --report-only: every finished one), 1 when any failed or stopped early (the report is still
@@ -764,7 +766,8 @@ def reproduce(
     """
     from hydrojam.paper.compare import CompareError, read_2d_results
     from hydrojam.paper.reproduce import reproduce as run_reproduce
-    from hydrojam.paper.study import DIMENSIONS, paper_study
+    from hydrojam.paper.sections import SectionError, check_page
+    from hydrojam.paper.study import DIMENSIONS, paper_study, study_name
 
     if dimension not in DIMENSIONS:
         raise InputError(f"--dimension: allowed {' or '.join(map(str, DIMENSIONS))} (got {dimension})")
@@ -784,15 +787,21 @@ def reproduce(
             read_2d_results(compare_2d, quick)
         except CompareError as err:
             raise InputError(f"--compare-2d: {err}") from None
+    for page in write_results:
+        try:
+            check_page(page, study_name(quick, dimension))
+        except SectionError as err:
+            raise InputError(f"--write-results: {err}") from None
     if report_only:
         _interim_report(lambda: run_reproduce(out, quick=quick, sweeps=sweep or None, replicas=replicas,
-                                              dimension=dimension, compare_2d=compare_2d, report_only=True),
+                                              dimension=dimension, compare_2d=compare_2d, report_only=True,
+                                              results_pages=write_results),
                         out, quiet)
         return
     _run_with_progress(lambda on_point, on_running: run_reproduce(
                            out, quick=quick, workers=workers, scheduler=scheduler, sweeps=sweep or None,
                            on_point=on_point, replicas=replicas, dimension=dimension, compare_2d=compare_2d,
-                           on_running=on_running),
+                           on_running=on_running, results_pages=write_results),
                        out, quiet, report=True)
 
 
