@@ -274,3 +274,41 @@ def test_reproduce_report_only_needs_the_replicas_of_the_study_in_the_folder(tmp
     assert "replicas: " in (err := _one_error_line(capsys)) and "with 2 per point (got 1)" in err
     assert "(--replicas 2)" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]
+
+
+def test_reproduce_3d_states_are_reported_apart(tmp_path):
+    """Replicas in two states (column_folds 0: arc, 1: folded, 40 deg lower): results.csv names each
+    point's states, replicas.csv each run's; the report's section "States" gives each state's runs
+    and θ and every statement's verdict per state; each state gets its own shapes figure. The
+    temperature sweep: arc at every temperature in replicas 0 and 1 with θ falling in T (T-angle
+    agrees on the arc runs), folded replica 2 at 275 and 285 K only (undetermined on the folded runs:
+    no folded run at 295 K)."""
+    import csv
+    import json
+
+    from paper_synthetic import write_point_3d
+
+    study = pstudy.paper_study(quick=True, sweeps=["temperature"], replicas=3, dimension=3)
+    for p in study.points():
+        metrics = paper_like(p.design)
+        T = p.design.stimulus.temperature
+        folded = p.replica == 2 and T < 290.0
+        metrics["bending_angle_deg"] += (-40.0 if folded else 0.0) + 0.1 * p.replica
+        metrics.update(converged=True, stabilisation_released=True, newton_iterations=900,
+                       column_folds=1 if folded else 0)
+        write_point_3d(tmp_path, {"point_dir": f"points/{p.key}"}, bend=-0.3, design=p.design)
+        record = {"key": p.key, "status": "ok", "error": None, "metrics": metrics, "wall_time_s": 600.0}
+        (tmp_path / "points" / p.key / "point.json").write_text(json.dumps(record))
+    table, report = reproduce(tmp_path, quick=True, sweeps=["temperature"], replicas=3, dimension=3)
+    states = {r["stimulus.temperature"]: r["states"] for r in csv.DictReader(open(tmp_path / "results.csv"))}
+    assert states == {"275.0": "arc 2; folded 1", "285.0": "arc 2; folded 1", "295.0": "arc"}
+    runs = list(csv.DictReader(open(tmp_path / "replicas.csv")))
+    assert sorted(r["states"] for r in runs) == ["arc"] * 7 + ["folded"] * 2
+    text = report.read_text(encoding="utf-8")
+    section = text.split("## States", 1)[1].split("###", 1)[0]
+    assert "| temperature | 295 K | 3, " in section and "| 0 |" in section  # no folded run at 295 K
+    line = next(ln for ln in section.splitlines() if ln.startswith("| T-angle |"))
+    assert "**agree**:" in line.split("|")[3] and "**undetermined**:" in line.split("|")[4]
+    for state in ("arc", "folded"):
+        assert (tmp_path / "figures" / f"temperature_shapes_{state}.png").is_file()
+        assert f"(figures/temperature_shapes_{state}.png)" in text

@@ -24,7 +24,7 @@ from hydrojam.paper.claims import (
     check_claims,
 )
 from hydrojam.paper.compare import comparison_lines
-from hydrojam.paper.figures import figure_names
+from hydrojam.paper.figures import figure_names, state_figure_name
 from hydrojam.paper.study import PaperSweep, paper_base, paper_sweeps, reproduce_command
 from hydrojam.study.cache import ROW_STATUSES, PointStatus
 
@@ -323,6 +323,10 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                 L += [f"![{what}: {sw.label}]({name})", ""]
             else:
                 L += [f"*{what} figure not written ({name}).*", ""]
+        for state in (states or {}) if len(states or {}) > 1 else ():
+            name = state_figure_name(sw, state)
+            if (out / name).is_file():
+                L += [f"![Deformed shapes, one run in the state {state} a point: {sw.label}]({name})", ""]
         L += (_points_table(rows, sw) if rows else [f"*No points of this sweep in the table: not run ({rerun} adds it).*"]) + [""]
     L += ["## The paper's statements and hydrojam", ""]
     L += ["| # | paper (Fig.) | hydrojam computed | verdict | why (for disagree) |", "|---|---|---|---|---|"]

@@ -102,8 +102,8 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
 
     table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=point_done, on_running=on_running,
                       run=not report_only)
-    write_figures(out, table)
     states = state_tables(study, out)
+    write_figures(out, table, states)
     report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler,
                           base=study.base, compare_2d=table_2d, compare_source=compare_2d,
                           computed=None if report_only else len(computed), ran=not report_only,
