@@ -11,6 +11,7 @@ Units: K, mm, degrees, minutes.
 
 from __future__ import annotations
 
+import json
 import os
 import re
 from pathlib import Path
@@ -23,7 +24,7 @@ from hydrojam.paper.claims import ClaimResult, Verdict
 from hydrojam.paper.study import paper_sweeps, reproduce_command, study_name
 from hydrojam.study.cache import PointStatus
 
-__all__ = ["SectionError", "check_page", "results_lines", "verdict_lines", "write_sections"]
+__all__ = ["SectionError", "check_page", "results_lines", "run_commits", "verdict_lines", "write_sections"]
 
 
 class SectionError(ValueError):
@@ -38,19 +39,37 @@ def _end(name: str) -> str:
     return f"<!-- /reproduce: {name} -->"
 
 
-def conditions_line(base: Design, quick: bool, replicas: int, workers: int | None, runs: tuple[int, int]) -> str:
-    """One line of conditions: the command, the code's commit, mesh, runs a point, friction,
-    workers, and how many of the study's runs have finished."""
+def conditions_line(base: Design, quick: bool, replicas: int, workers: int | None, runs: tuple[int, int],
+                    run_commits: tuple[str, ...] = ()) -> str:
+    """One line of conditions: the command, the commits of the code that computed the runs (else
+    the code writing the table), mesh, runs a point, friction, workers, and how many of the
+    study's runs have finished."""
     src = source_provenance()
-    commit = str(src.get("commit") or "unknown")[:7] + (" (with local changes)" if src.get("dirty") is True else "")
+    commit = ", ".join(f"`{c[:7]}`" for c in run_commits) if run_commits else \
+        f"`{str(src.get('commit') or 'unknown')[:7]}`" + (" (with local changes)" if src.get("dirty") is True else "")
     dim = base.dimension
     model = "3D half model" if dim == 3 and base.mesh.symmetry else ("3D" if dim == 3 else "2D plane strain")
     friction = "frictionless" if base.friction == 0 else f"friction {base.friction:g}"
     who = f"{workers} workers" if workers else "one worker per CPU"
-    return (f"Conditions: `{reproduce_command(quick, dim, replicas)}`, code of `{commit}`, {model}, mesh "
+    return (f"Conditions: `{reproduce_command(quick, dim, replicas)}`, runs computed by the code of {commit}, {model}, mesh "
             f"{base.mesh.size:g} mm, {replicas} run{'s' if replicas != 1 else ''} a point, {friction}, {who} on "
             f"{os.cpu_count()} cores; {runs[0]} of {runs[1]} runs finished. θ, δx, δz: mean ± standard deviation "
             "over the runs that converged; the states as in docs/replicas.md.")
+
+
+def run_commits(study, out: str | os.PathLike) -> tuple[str, ...]:
+    """The commits of the code that computed the finished runs of ``study`` in ``out``, sorted:
+    read from each run's metrics.json (``provenance.source.commit``), those without one left out."""
+    commits = set()
+    for key in {p.key for p in study.points()}:
+        try:
+            data = json.loads((Path(out) / "points" / key / "metrics.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        commit = ((data.get("provenance") or {}).get("source") or {}).get("commit")
+        if isinstance(commit, str) and re.fullmatch(r"[0-9a-f]{7,40}", commit):
+            commits.add(commit)
+    return tuple(sorted(commits))
 
 
 def _state_cell(row: dict, states: dict) -> str:
@@ -68,7 +87,7 @@ def _state_cell(row: dict, states: dict) -> str:
 
 
 def results_lines(table, base: Design, quick: bool, replicas: int, workers: int | None, states: dict,
-                  results: list[ClaimResult]) -> list[str]:
+                  results: list[ClaimResult], run_commits: tuple[str, ...] = ()) -> list[str]:
     """The table of a study's points (Markdown) with its conditions line and its verdicts.
 
     Parameters
@@ -87,6 +106,8 @@ def results_lines(table, base: Design, quick: bool, replicas: int, workers: int 
         State -> the table of its runs alone (:func:`hydrojam.study.table.state_tables`).
     results : list of ClaimResult
         The claims checked on ``table``.
+    run_commits : tuple of str, optional
+        The commits of the code that computed the finished runs (their metrics' provenance).
 
     Returns
     -------
@@ -100,7 +121,7 @@ def results_lines(table, base: Design, quick: bool, replicas: int, workers: int 
     for r in rows:
         ran = point_status(r) in (PointStatus.OK, PointStatus.NOT_CONVERGED)
         finished[r.get("key")] = int(number(r.get("replicas_used")) or 0) if replicas > 1 else int(ran)
-    L = [conditions_line(base, quick, replicas, workers, (sum(finished.values()), len(dirs))), "",
+    L = [conditions_line(base, quick, replicas, workers, (sum(finished.values()), len(dirs)), run_commits), "",
          "| sweep | point | θ [deg] | δx [mm] | δz [mm] | curling index | runs | states (runs: θ [deg]) | "
          "Newton iterations (mean) | compute [min] |",
          "|---|---:|---:|---:|---:|---:|---:|---|---:|---:|"]
