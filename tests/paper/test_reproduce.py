@@ -162,12 +162,15 @@ def test_reproduce_3d_from_cached_points_with_the_2d_comparison(tmp_path):
     assert main(["reproduce", "--quick", "-o", str(two), "--quiet", "--sweep", "temperature"]) == 0
     _cache_3d_points(three, pstudy.paper_study(quick=True, dimension=3))
     page = tmp_path / "page.md"
-    page.write_text("# p\n<!-- reproduce: paper-3d-quick -->\n<!-- /reproduce: paper-3d-quick -->\n", encoding="utf-8")
+    page.write_text("# p\n<!-- reproduce: paper-3d-quick -->\n<!-- /reproduce: paper-3d-quick -->\n"
+                    "<!-- reproduce: paper-3d-quick time -->\n<!-- /reproduce: paper-3d-quick time -->\n", encoding="utf-8")
     assert main(["reproduce", "--dimension", "3", "--quick", "-o", str(three), "--quiet",
                  "--compare-2d", str(two), "--write-results", str(page)]) == 0
     written = page.read_text(encoding="utf-8")
     assert "Conditions: `hydrojam reproduce --dimension 3 --quick`" in written and "13 of 13 runs finished" in written
     assert "| strain_limit_width | 12 mm |" in written and "| paper-3d-quick | claims |" in written
+    cost = written.split("<!-- reproduce: paper-3d-quick time -->")[1]
+    assert "| `hydrojam reproduce --dimension 3 --quick` | 13 of 13 | 900-900 (mean 900) | 10.0 min | 2.2 h |" in cost
     assert "paper-3d-quick" in (three / "study.toml").read_text()
     assert len(list((three / "figures").glob("*.png"))) == 8
     text = (three / "report.md").read_text(encoding="utf-8")

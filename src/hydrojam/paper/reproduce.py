@@ -20,7 +20,7 @@ from hydrojam.paper.claims import check_claims
 from hydrojam.paper.compare import read_2d_results
 from hydrojam.paper.figures import write_figures
 from hydrojam.paper.report import write_report
-from hydrojam.paper.sections import check_page, results_lines, run_commits, verdict_lines, write_sections
+from hydrojam.paper.sections import check_page, results_lines, run_commits, time_lines, verdict_lines, write_sections
 from hydrojam.paper.study import paper_study
 from hydrojam.study.sweep import PointOutcome, run_sweep
 from hydrojam.study.table import SweepTable, state_tables
@@ -110,8 +110,9 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
                           states=states)
     if results_pages:
         results = check_claims(table, dimension)
-        lines = results_lines(table, study.base, quick, replicas, workers, states, results,
-                              run_commits(study, out))
+        commits = run_commits(study, out)
+        lines = results_lines(table, study.base, quick, replicas, workers, states, results, commits)
+        cost = time_lines(table, study.base, quick, replicas, workers, commits)
         for page in results_pages:
-            write_sections(page, study.name, lines, verdict_lines(results, study.name))
+            write_sections(page, study.name, lines, verdict_lines(results, study.name), cost)
     return table, report

@@ -2,10 +2,11 @@
 and the README are the command's output, not copies.
 
 A page holds a section between ``<!-- reproduce: NAME -->`` and ``<!-- /reproduce: NAME -->``,
-NAME the study's name (``paper-quick``, ``paper-3d-quick``, ...) for the table of its points, or
-the name followed by `` verdicts`` for the count of its verdicts. :func:`write_sections` replaces
-every such section of the study on a page with a line of conditions (command, commit, mesh, runs
-a point, friction, workers) and the table, and leaves the rest of the page as it was.
+NAME the study's name (``paper-quick``, ``paper-3d-quick``, ...) for the table of its points, the
+name followed by `` verdicts`` for the count of its verdicts, or by `` time`` for what its runs
+cost. :func:`write_sections` replaces every such section of the study on a page (the table with a
+line of conditions: command, commits, mesh, runs a point, friction, workers) and leaves the rest
+of the page as it was.
 Units: K, mm, degrees, minutes.
 """
 
@@ -24,7 +25,11 @@ from hydrojam.paper.claims import ClaimResult, Verdict
 from hydrojam.paper.study import paper_sweeps, reproduce_command, study_name
 from hydrojam.study.cache import PointStatus
 
-__all__ = ["SectionError", "check_page", "results_lines", "run_commits", "verdict_lines", "write_sections"]
+__all__ = ["SECTION_KINDS", "SectionError", "check_page", "results_lines", "run_commits", "time_lines", "verdict_lines",
+           "write_sections"]
+
+#: the sections a study can write on a page: "" (its points), " verdicts", " time"
+SECTION_KINDS = ("", " verdicts", " time")
 
 
 class SectionError(ValueError):
@@ -143,6 +148,59 @@ def results_lines(table, base: Design, quick: bool, replicas: int, workers: int 
     return L
 
 
+def time_lines(table, base: Design, quick: bool, replicas: int, workers: int | None,
+               run_commits: tuple[str, ...] = ()) -> list[str]:
+    """What a study's finished runs cost, as a one-row Markdown table: runs finished, Newton
+    iterations a run (the range of the points' means, and the mean), compute a run and in all.
+
+    Parameters
+    ----------
+    table : SweepTable
+        The study's results.
+    base : Design
+        The study's base design.
+    quick : bool
+        The quick study.
+    replicas : int
+        Runs a point.
+    workers : int or None
+        Local workers.
+    run_commits : tuple of str, optional
+        The commits of the code that computed the runs.
+
+    Returns
+    -------
+    list of str
+    """
+    rows = {}
+    for sw in paper_sweeps(base.dimension):
+        for r in rows_of(table, sw.name):
+            rows.setdefault(r.get("key"), r)
+    runs = iters = 0.0
+    compute = 0.0
+    means = []
+    for r in rows.values():
+        n = number(r.get("replicas_used")) if replicas > 1 else float(
+            point_status(r) in (PointStatus.OK, PointStatus.NOT_CONVERGED))
+        it, wall = number(r.get("newton_iterations")), number(r.get("wall_time_s"))
+        if not n or it is None:
+            continue
+        runs += n
+        iters += it * n
+        compute += wall or 0.0
+        means.append(it)
+    commit = ", ".join(f"`{c[:7]}`" for c in run_commits) or "—"
+    span = f"{min(means):.0f}-{max(means):.0f} (mean {iters / runs:.0f})" if means else "—"
+    per_run = f"{compute / runs / 60:.1f} min" if runs else "—"
+    who = f"{workers} workers" if workers else "one worker per CPU"
+    return [f"| study | runs finished | Newton iterations a run | compute a run | compute in all | conditions |",
+            "|---|---:|---|---:|---:|---|",
+            f"| `{reproduce_command(quick, base.dimension, replicas)}` | {runs:.0f} of "
+            f"{sum(int(number(r.get('replicas')) or 1) for r in rows.values())} | {span} | {per_run} | "
+            f"{compute / 3600:.1f} h | mesh {base.mesh.size:g} mm, {who} of one thread on {os.cpu_count()} cores, "
+            f"code {commit} |"]
+
+
 def verdict_lines(results: list[ClaimResult], name: str) -> list[str]:
     """The verdicts of a study as one Markdown table: each verdict with its count and claims."""
     L = [f"| {name} | claims |", "|---|---|"]
@@ -160,16 +218,17 @@ def check_page(page: str | os.PathLike, name: str) -> None:
         text = path.read_text(encoding="utf-8")
     except OSError as err:
         raise SectionError(f"{path}: cannot be read ({err.strerror or err})") from None
-    if _begin(name) not in text and _begin(f"{name} verdicts") not in text:
-        raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts') "
-                           "to write the results into")
+    if not any(_begin(name + kind) in text for kind in SECTION_KINDS):
+        raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts', "
+                           f"'{name} time') to write the results into")
     if not os.access(path.parent, os.W_OK) or not os.access(path, os.W_OK):
         raise SectionError(f"{path}: cannot be written (permission denied)")
 
 
-def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], verdicts: list[str]) -> list[str]:
+def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], verdicts: list[str],
+                   time: list[str] | None = None) -> list[str]:
     """Replace the sections of study ``name`` on ``page`` (atomically): ``NAME`` gets
-    ``table_lines``, ``NAME verdicts`` gets ``verdicts``.
+    ``table_lines``, ``NAME verdicts`` gets ``verdicts``, ``NAME time`` gets ``time``.
 
     Parameters
     ----------
@@ -179,6 +238,8 @@ def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], v
         The study's name.
     table_lines, verdicts : list of str
         The sections' new contents.
+    time : list of str, optional
+        The cost section's (:func:`time_lines`).
 
     Returns
     -------
@@ -196,14 +257,14 @@ def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], v
     except OSError as err:
         raise SectionError(f"{path}: cannot be read ({err.strerror or err})") from None
     written = []
-    for section, lines in ((name, table_lines), (f"{name} verdicts", verdicts)):
+    for section, lines in ((name, table_lines), (f"{name} verdicts", verdicts), (f"{name} time", time or [])):
         pattern = re.compile(re.escape(_begin(section)) + r"\n.*?" + re.escape(_end(section)), re.S)
         if pattern.search(text):
             body = "\n".join([_begin(section), *lines, _end(section)])
             text = pattern.sub(lambda _: body, text)
             written.append(section)
     if not written:
-        raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts') "
-                           "to write the results into")
+        raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts', "
+                           f"'{name} time') to write the results into")
     write_text_atomic(path, text)
     return written
