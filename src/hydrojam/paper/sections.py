@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import os
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 from hydrojam._io import write_text_atomic
@@ -45,7 +46,7 @@ def _end(name: str) -> str:
 
 
 def conditions_line(base: Design, quick: bool, replicas: int, workers: int | None, runs: tuple[int, int],
-                    run_commits: tuple[str, ...] = ()) -> str:
+                    run_commits: tuple[str, ...] = (), overrides: Sequence[str] = ()) -> str:
     """One line of conditions: the command, the commits of the code that computed the runs (else
     the code writing the table), mesh, runs a point, friction, workers, and how many of the
     study's runs have finished."""
@@ -56,7 +57,7 @@ def conditions_line(base: Design, quick: bool, replicas: int, workers: int | Non
     model = "3D half model" if dim == 3 and base.mesh.symmetry else ("3D" if dim == 3 else "2D plane strain")
     friction = "frictionless" if base.friction == 0 else f"friction {base.friction:g}"
     who = f"{workers} workers" if workers else "one worker per CPU"
-    return (f"Conditions: `{reproduce_command(quick, dim, replicas)}`, runs computed by the code of {commit}, {model}, mesh "
+    return (f"Conditions: `{reproduce_command(quick, dim, replicas, overrides)}`, runs computed by the code of {commit}, {model}, mesh "
             f"{base.mesh.size:g} mm, {replicas} run{'s' if replicas != 1 else ''} a point, {friction}, {who} on "
             f"{os.cpu_count()} cores; {runs[0]} of {runs[1]} runs finished. θ, δx, δz: mean ± standard deviation "
             "over the runs that converged; the states as in docs/replicas.md.")
@@ -92,7 +93,8 @@ def _state_cell(row: dict, states: dict) -> str:
 
 
 def results_lines(table, base: Design, quick: bool, replicas: int, workers: int | None, states: dict,
-                  results: list[ClaimResult], run_commits: tuple[str, ...] = ()) -> list[str]:
+                  results: list[ClaimResult], run_commits: tuple[str, ...] = (),
+                  overrides: Sequence[str] = ()) -> list[str]:
     """The table of a study's points (Markdown) with its conditions line and its verdicts.
 
     Parameters
@@ -113,6 +115,8 @@ def results_lines(table, base: Design, quick: bool, replicas: int, workers: int 
         The claims checked on ``table``.
     run_commits : tuple of str, optional
         The commits of the code that computed the finished runs (their metrics' provenance).
+    overrides : sequence of str, optional
+        The study's model choices (``--set``).
 
     Returns
     -------
@@ -126,7 +130,8 @@ def results_lines(table, base: Design, quick: bool, replicas: int, workers: int 
     for r in rows:
         ran = point_status(r) in (PointStatus.OK, PointStatus.NOT_CONVERGED)
         finished[r.get("key")] = int(number(r.get("replicas_used")) or 0) if replicas > 1 else int(ran)
-    L = [conditions_line(base, quick, replicas, workers, (sum(finished.values()), len(dirs)), run_commits), "",
+    L = [conditions_line(base, quick, replicas, workers, (sum(finished.values()), len(dirs)), run_commits,
+                         overrides), "",
          "| sweep | point | θ [deg] | δx [mm] | δz [mm] | curling index | runs | states (runs: θ [deg]) | "
          "Newton iterations (mean) | compute [min] |",
          "|---|---:|---:|---:|---:|---:|---:|---|---:|---:|"]
@@ -144,12 +149,12 @@ def results_lines(table, base: Design, quick: bool, replicas: int, workers: int 
                      f"{cell_pm(r, 'tip_dz_mm')} | {cell_pm(r, 'curling_index', '{:.2f}')} | {used} | "
                      f"{_state_cell(r, states)} | {cell(r.get('newton_iterations'), '{:.0f}')} | "
                      f"{'' if wall is None else f'{wall / 60:.1f}'} |")
-    L += [""] + verdict_lines(results, study_name(quick, dim))
+    L += [""] + verdict_lines(results, study_name(quick, dim, overrides))
     return L
 
 
 def time_lines(table, base: Design, quick: bool, replicas: int, workers: int | None,
-               run_commits: tuple[str, ...] = ()) -> list[str]:
+               run_commits: tuple[str, ...] = (), overrides: Sequence[str] = ()) -> list[str]:
     """What a study's finished runs cost, as a one-row Markdown table: runs finished, Newton
     iterations a run (the range of the points' means, and the mean), compute a run and in all.
 
@@ -167,6 +172,8 @@ def time_lines(table, base: Design, quick: bool, replicas: int, workers: int | N
         Local workers.
     run_commits : tuple of str, optional
         The commits of the code that computed the runs.
+    overrides : sequence of str, optional
+        The study's model choices (``--set``).
 
     Returns
     -------
@@ -195,7 +202,7 @@ def time_lines(table, base: Design, quick: bool, replicas: int, workers: int | N
     who = f"{workers} workers" if workers else "one worker per CPU"
     return [f"| study | runs finished | Newton iterations a run | compute a run | compute in all | conditions |",
             "|---|---:|---|---:|---:|---|",
-            f"| `{reproduce_command(quick, base.dimension, replicas)}` | {runs:.0f} of "
+            f"| `{reproduce_command(quick, base.dimension, replicas, overrides)}` | {runs:.0f} of "
             f"{sum(int(number(r.get('replicas')) or 1) for r in rows.values())} | {span} | {per_run} | "
             f"{compute / 3600:.1f} h | mesh {base.mesh.size:g} mm, {who} of one thread on {os.cpu_count()} cores, "
             f"code {commit} |"]
