@@ -469,7 +469,8 @@ def _replica_summary(title: str, summary) -> Table:
         table.add_row(name, num(sp.mean), num(sp.std), f"{num(sp.min)} (#{sp.argmin})" if sp.n else "—",
                       f"{num(sp.max)} (#{sp.argmax})" if sp.n else "—", f"{sp.n}/{summary.count}", metric(name).unit)
     table.caption = (f"seed {summary.design.replicas.seed}, jitter {summary.design.replicas.jitter:g} x clearance; "
-                     f"wall time {summary.wall_time_s:.1f} s (replicas in parallel), summed {summary.compute_time_s:.1f} s")
+                     f"wall time {summary.wall_time_s:.1f} s (replicas in parallel), summed {summary.compute_time_s:.1f} s"
+                     + (f"; states: {summary.states_text}" if summary.states_text else ""))
     return table
 
 
