@@ -20,5 +20,6 @@ _PUBLIC = {
     "hydrojam.actuator.checkpoint": ['RunCheckpoint', 'CheckpointError', 'load_checkpoint', 'save_checkpoint', 'CHECKPOINT', 'ReleaseProgress', 'release_progress'],
     "hydrojam.actuator.plots": ['plot_actuator', 'plot_angle_time', 'mid_section'],
     "hydrojam.actuator.geometry": ["actuator_2d"],
+    "hydrojam.actuator.provenance": ["source_provenance"],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

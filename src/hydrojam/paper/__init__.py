@@ -14,5 +14,6 @@ _PUBLIC = {
     "hydrojam.paper.figures": ['plot_shapes', 'plot_trends', 'write_figures'],
     "hydrojam.paper.report": ['write_report', 'MODEL_DIFFERENCES'],
     "hydrojam.paper.compare": ['compare_points', 'PointComparison', 'CompareError', 'read_2d_results'],
+    "hydrojam.paper.sections": ["SectionError", "check_page"],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())
