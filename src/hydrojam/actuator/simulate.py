@@ -441,7 +441,8 @@ def _release(problem, stab, x, options: PathOptions, terms, timings: Timings,
     """Take the stabilisation off at s = 1 (:func:`hydrojam.fem.solver.release.release`, ``options.release``),
     for a path that did not release it at every step. Returns (x, Newton iterations, released,
     rounds); ``on_round(checkpoint)`` after every round, ``resume``: such a checkpoint."""
-    solver = LinearSolver(options.newton.linear_solver, observers)  # one for all rounds: each PARDISO handle's set-up costs
+    # one for all rounds: each PARDISO handle's set-up costs
+    solver = LinearSolver(options.newton.linear_solver, observers)
     state = None
     if resume is not None:
         state = ReleaseState(resume.x, resume.iterations, resume.scale, resume.failed, resume.rounds,

@@ -95,7 +95,8 @@ def _held_since_failure(rounds, k: int) -> bool:
 def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, newton: NewtonOptions,
             solver: LinearSolver | None = None, options: ReleaseOptions = ReleaseOptions(), base_scale: float = 1.0,
             unphysical: tuple[str, ...] = ("stabilisation",), resume: ReleaseState | None = None,
-            on_round: Callable[[ReleaseState], None] | None = None, observers: Sequence[Observer] = ()) -> ReleaseResult:
+            on_round: Callable[[ReleaseState], None] | None = None,
+            observers: Sequence[Observer] = ()) -> ReleaseResult:
     """Take the damped term ``damped`` (one of ``terms``, with a ``scale``) off at positions x
     (n, d) [mm] by proximal rounds (:class:`ReleaseOptions`), from its present scale.
 
@@ -120,7 +121,8 @@ def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, 
     cap = options.cap * base_scale
 
     def result(ok, checked=None):
-        r, tol = checked or physical_residual(terms, x, free, force_scale, newton.rtol, unphysical, newton.residual_floor)
+        r, tol = checked or physical_residual(terms, x, free, force_scale, newton.rtol, unphysical,
+                                              newton.residual_floor)
         return ReleaseResult(x, its, ok, rounds, r, tol, spent)
 
     def equilibrium(roundoff: bool = False):

@@ -186,8 +186,9 @@ def settle(terms, x: np.ndarray, free: np.ndarray, force_scale: float, newton: N
            solver: LinearSolver, checker: LinearSolver, perturbation: float = 1e-5, tries: int = 3,
            observers: Sequence[Observer] = ()) -> Settled:
     """Move an unstable equilibrium x (n, d) [mm] of ``terms`` (the physics) off its saddle, along
-    its unstable mode: the Hessian's lowest eigenpair (:func:`~hydrojam.fem.solver.stability.lowest_mode`),
-    followed downhill from a largest nodal move of ``perturbation`` x the bounding box diagonal, doubled while the energy falls (:func:`_down_the_mode`), then the full Newton
+    its unstable mode: the Hessian's lowest eigenpair (:func:`lowest_mode`), followed downhill
+    from a largest nodal move of ``perturbation`` x the bounding box diagonal, doubled while the
+    energy falls (:func:`_down_the_mode`), then the full Newton
     from the lowest state on it. Below the saddle's energy the monotone descent cannot come back
     to it. Up to ``tries`` times, from each unstable equilibrium reached; the result is the first
     stable state, or x itself with its count where none was reached."""
