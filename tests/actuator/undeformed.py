@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from hydrojam.fem.newton import NewtonOptions
+from hydrojam.fem.solver.newton import NewtonOptions
 
 
 def assert_nothing_moved(model, res) -> float:

@@ -36,8 +36,8 @@ from hydrojam.fem.contact import Contact, ContactSettings, collision_primitives
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.fem.mesh import Mesh, merge
 from hydrojam.fem.meshing import ball_octant, quarter_disk, shell_sector
-from hydrojam.fem.newton import NewtonOptions
-from hydrojam.fem.path import PathOptions, solve_path
+from hydrojam.fem.solver.newton import NewtonOptions
+from hydrojam.fem.solver.path import PathOptions, solve_path
 from hydrojam.fem.problem import Problem, fixed
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean
 

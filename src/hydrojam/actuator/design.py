@@ -616,14 +616,16 @@ def _parse_value(text: str):
         return text.strip()
 
 
-def _merge(into: dict, key: list[str], value) -> None:
+def merge_value(into: dict, key: list[str], value) -> None:
+    """Set the nested field ``key`` (its path of names) of the dict ``into`` to ``value``,
+    merging a dict into a dict already there (a design override)."""
     for name in key[:-1]:
         into = into.setdefault(name, {})
     old = into.get(key[-1])
     if isinstance(old, dict) and isinstance(value, dict):
         merged = dict(old)
         for k, v in value.items():
-            _merge(merged, [k], v)
+            merge_value(merged, [k], v)
         into[key[-1]] = merged
     else:
         into[key[-1]] = value
@@ -670,7 +672,7 @@ def apply_overrides(design: Design, overrides: list[str]) -> Design:
                 raise DesignError(
                     f"--set {item}: unknown key {key} (allowed: {', '.join(model.model_fields)})"
                 )
-        _merge(data, parts, _parse_value(text))
+        merge_value(data, parts, _parse_value(text))
         applied.append((key, item))
     try:
         return design_from_dict(data)
@@ -704,7 +706,8 @@ _EXAMPLES = {"schedule": "[[0, 300], [60, 275], [7200, 275]]",
              "strain_limit_width": "8.0  # 3D only: a strip 8 mm wide centred on the -x face"}
 
 
-def _toml(value) -> str:
+def toml_value(value) -> str:
+    """``value`` written as a TOML value (the right-hand side of ``key = value``)."""
     return tomli_w.dumps({"v": value})[len("v = "):].rstrip("\n")
 
 
@@ -719,7 +722,7 @@ def _allowed(model: type[BaseModel], name: str) -> str:
     info = model.model_fields[name]
     ann = info.annotation
     if typing.get_origin(ann) is Literal:
-        return "allowed: " + ", ".join(_toml(v) for v in typing.get_args(ann))
+        return "allowed: " + ", ".join(toml_value(v) for v in typing.get_args(ann))
     rng = field_range(model, name)
     return f"allowed {rng.replace(' ', _NBSP)}" if rng else ""
 
@@ -737,15 +740,15 @@ def _field_lines(model: BaseModel, comments: bool, owner: Design | None) -> list
             if allowed:
                 parts.append(allowed)
             if info.default is not None:
-                parts.append(f"default {_toml(info.default)}")
+                parts.append(f"default {toml_value(info.default)}")
             lines += _comment("; ".join(parts))
         if value is None:
             if comments and owner is not None and name in _DERIVED:
-                lines += [f"# {name} = {_toml(getattr(owner, _DERIVED[name]))}", ""]
+                lines += [f"# {name} = {toml_value(getattr(owner, _DERIVED[name]))}", ""]
             elif comments and name in _EXAMPLES:
                 lines += [f"# {name} = {_EXAMPLES[name]}", ""]
             continue
-        lines.append(f"{name} = {_toml(value)}")
+        lines.append(f"{name} = {toml_value(value)}")
         if comments:
             lines.append("")
     return lines

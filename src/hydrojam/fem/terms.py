@@ -20,7 +20,7 @@ and may override these optional parts, whose defaults are what a term without th
 * ``hessian_pattern(x) -> None``: a sparsity pattern (n*d, n*d) that holds this term's Hessian
   at x and at the states near x, where the Hessian's own pattern changes from state to state
   (contact: every coupling of the pairs within reach); None: the Hessian's own pattern. The
-  solver hands it to the linear solver as a hint (:meth:`hydrojam.fem.linsolve.LinearSolver.solve`);
+  solver hands it to the linear solver as a hint (:meth:`hydrojam.fem.solver.linsolve.LinearSolver.solve`);
   no result depends on it;
 * ``fallback_projection = False``: True asks the solver to re-assemble this term's Hessian with
   ``project=True`` when the exact Hessian gives no descent, before damping the whole system;
@@ -90,7 +90,7 @@ class EnergyTerm(abc.ABC):
 
 @runtime_checkable
 class DampedTerm(Protocol):
-    """A term whose weight the load path adapts (:attr:`hydrojam.fem.path.PathOptions.damped_term`,
+    """A term whose weight the load path adapts (the term named "stabilisation" of a load path,
     a :class:`ViscousStabilisation`): ``scale`` [-] multiplies its energy, 0 switches it off."""
 
     name: str
