@@ -1,4 +1,4 @@
-"""The package's shape (DESIGN.md section 9): data flows one way through the layers, no import
+"""The package's shape (docs/decisions.md, "Shape of the code"): data flows one way through the layers, no import
 cycles, light imports stay light, and no module changes a user's matplotlib backend.
 
 Layers, lowest first: the shared helpers (``_version``, ``_io``, ``_validation``, ``_format``, ``_lazy``, ``_interrupt``) < ``materials`` < ``fem`` <

@@ -1,4 +1,4 @@
-"""The undeformed-state check shared by the 2D and 3D simulation tests (DESIGN.md section 3)."""
+"""The undeformed-state check shared by the 2D and 3D simulation tests (docs/model.md, "Reference state")."""
 
 import math
 

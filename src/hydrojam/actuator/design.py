@@ -1,11 +1,11 @@
-"""The actuator design: one validated, frozen description of what to simulate (DESIGN.md 2-6).
+"""The actuator design: one validated, frozen description of what to simulate (docs/actuator.md, "Design").
 
 A :class:`Design` is read from and written to TOML. Units: length mm, stress MPa, temperature K,
 chemical potential k_B T. Every invalid input raises :class:`DesignError` with one line naming
 the field (dotted, e.g. ``stimulus.temperature``), the problem, the allowed range and the value
 given.
 
-Geometry (DESIGN.md section 6): x is the bending direction (strain-limit layer on the -x side),
+Geometry (docs/decisions.md, "Geometry"): x is the bending direction (strain-limit layer on the -x side),
 z the actuator axis (clamped top at z = 0, free end at z = -L), y the depth (3D only).
 """
 
@@ -65,7 +65,7 @@ _CONFIG = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class ElastomerSpec(BaseModel):
-    """An elastomer (membrane or strain-limit layer): compressible neo-Hookean or Yeoh (DESIGN.md 4).
+    """An elastomer (membrane or strain-limit layer): compressible neo-Hookean or Yeoh (docs/model.md).
 
     Default: Ecoflex 00-30, G = 0.023 MPa, Poisson's ratio 0.45. Checks: C20, C30 only with
     ``model = "yeoh"``; a Yeoh fit must keep dW/dI1bar = C10 + 2 C20 x + 3 C30 x^2 > 0 for
@@ -141,7 +141,8 @@ class GelSpec(HydrogelParams):
 
 
 class StimulusSpec(BaseModel):
-    """Target stimulus (mu [k_B T], T [K]) and the path from the as-prepared (mu0, T0) to it (DESIGN.md 3).
+    """Target stimulus (mu [k_B T], T [K]) and the path from the as-prepared (mu0, T0) to it
+    (docs/actuator.md, "Stimulus path").
 
     With a ``schedule`` ([[t_s, T_K], ...]: times strictly increasing from 0, temperatures in
     liquid water's range, 2 to 1000 points, linear in between; a step is a short ramp) the run
@@ -286,7 +287,7 @@ class ReplicaSpec(BaseModel):
 
 
 class Design(BaseModel):
-    """A particle-jamming bending actuator: geometry, materials, stimulus and mesh (DESIGN.md 6).
+    """A particle-jamming bending actuator: geometry, materials, stimulus and mesh (docs/actuator.md).
 
     Cavity sizes left out (None) are derived from the particles: width ``m d + (m + 1) c``, length
     ``PL d + (PL + 1) c``, depth (3D) ``d + 2 c`` (m particles per layer, PL layers, d diameter,
@@ -546,7 +547,7 @@ def with_replicas(design: Design, count: int) -> Design:
 
 
 def default_design() -> Design:
-    """The default design (DESIGN.md section 6): d 16 mm, PL 5, clearance 0.1 mm, L = 88.6 mm.
+    """The default design (docs/actuator.md, "Design"): d 16 mm, PL 5, clearance 0.1 mm, L = 88.6 mm.
 
     Returns
     -------

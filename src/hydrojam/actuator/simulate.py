@@ -1,5 +1,5 @@
 """Simulate an actuator along its stimulus path: the load-path solver on the model's energy terms,
-with the metrics measured at every accepted step (DESIGN.md sections 3, 7, 8).
+with the metrics measured at every accepted step (docs/actuator.md, "Solving").
 
 :func:`simulate` returns a :class:`SimulationResult`: the accepted states, their metrics, whether
 s = 1 was reached (if not, why, with the last converged state kept) and where the time went.

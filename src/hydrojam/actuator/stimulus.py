@@ -1,5 +1,5 @@
 """The stimulus path: how (mu, T) move from the as-prepared state to the target as the load
-parameter s goes from 0 to 1 (DESIGN.md section 3).
+parameter s goes from 0 to 1 (docs/actuator.md, "Stimulus path").
 
 Both paths move (mu, T) along the straight segment from (mu0, T0) to (mu_target, T_target); they
 differ only in how fast. ``"linear"``: the position on the segment is s. ``"swelling"``

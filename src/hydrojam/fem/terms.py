@@ -1,4 +1,4 @@
-"""The one protocol of everything the solver minimises: an *energy term* (DESIGN.md section 8).
+"""The one protocol of everything the solver minimises: an *energy term* (docs/solver.md, "The energy and its terms").
 
 A term is a subclass of :class:`EnergyTerm`. For nodal positions ``x`` of shape (n_nodes, d)
 [mm] it gives

@@ -57,7 +57,7 @@ def _drawing(mesh, source: str = "final.vtu") -> _Drawing:
 
     :func:`hydrojam.actuator.results.write_vtu` writes the reference points and a ``displacement`` field:
     the deformed points are their sum and the outline is the reference points' bounding box
-    (the actuator is a rectangle, DESIGN.md section 6). Without a displacement field the points
+    (the actuator is a rectangle, docs/decisions.md, "Geometry"). Without a displacement field the points
     are taken as deformed and no outline is drawn. A 3D actuator (quadratic tetrahedra, the half
     model mirrored) is drawn as its section y = 0 (:func:`_section_y0`); the last item says so."""
     body_data = mesh.cell_data.get("body_id")

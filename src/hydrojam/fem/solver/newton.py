@@ -1,4 +1,4 @@
-"""Energy minimisation by damped Newton (DESIGN.md section 8).
+"""Energy minimisation by damped Newton (docs/solver.md, "Newton").
 
 The solver knows only energy terms (:mod:`hydrojam.fem.terms`) and which DOFs are free. Every
 accepted state has finite energy (admissible) and respects every term's step cap (contact CCD).

@@ -1,4 +1,4 @@
-"""The adaptive load path (DESIGN.md section 8): s from 0 to 1 in increments, each a Newton
+"""The adaptive load path (docs/solver.md, "Load path"): s from 0 to 1 in increments, each a Newton
 minimisation (:mod:`hydrojam.fem.solver.newton`) of a :class:`~hydrojam.fem.problem.Problem`'s terms."""
 
 from __future__ import annotations
