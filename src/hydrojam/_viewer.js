@@ -4,8 +4,8 @@
 // <script type="application/json"> holding its surfaces: groups of triangles (positions float32,
 // indices uint32, optional per-vertex RGB uint8, all base64) or line segments, each with a colour
 // and an opacity; a check box per group shows or hides it. The page's address may end in
-// #azimuth=DEG&elevation=DEG: the initial view turned by those angles about the vertical and
-// the horizontal (what a mouse drag does).
+// #azimuth=DEG&elevation=DEG&hide=GROUP,...: the initial view turned by those angles about the
+// vertical and the horizontal (what a mouse drag does), those groups hidden (their boxes unticked).
 const source = (id) => document.getElementById(id).textContent;
 const moduleUrl = (text) => URL.createObjectURL(new Blob([text], { type: "text/javascript" }));
 const bytes = (b64) => Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
@@ -17,6 +17,7 @@ THREE.ColorManagement.enabled = false;  // the colours given are the colours sho
 
 const hash = new URLSearchParams(location.hash.slice(1));
 const turn = (name) => THREE.MathUtils.degToRad(Number(hash.get(name) || 0));
+const hidden = (hash.get("hide") || "").split(",");
 
 function build(el) {
   const data = JSON.parse(source(el.dataset.scene));
@@ -59,7 +60,8 @@ function build(el) {
     const label = document.createElement("label");
     const check = document.createElement("input");
     check.type = "checkbox";
-    check.checked = true;
+    check.checked = !hidden.includes(g.name);
+    obj.visible = check.checked;
     check.dataset.group = g.name;
     check.addEventListener("change", () => { obj.visible = check.checked; draw(); });
     label.append(check, " " + g.label);
