@@ -1,0 +1,117 @@
+"""What the pictures of a run cost: the 3D render (final.png's), the actuation movie and the HTML
+page, drawn from a finished run's folder after the run (never inside the solve).
+
+    python benchmarks/pictures.py OUT3D [OUT2D] [--markdown docs/benchmarks.md]
+
+OUT3D (and OUT2D): folders of finished runs of ``hydrojam run`` (with their steps/*.vtu). The render
+is timed twice in one process: the first includes importing PyVista and opening the off-screen
+OpenGL context, the second is what a movie's frame costs beyond its window. ``--markdown PAGE``
+writes the table into PAGE's section between ``<!-- pictures.py: costs -->`` and
+``<!-- /pictures.py: costs -->``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from _common import _version, print_environment
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+
+
+def _commit() -> str:
+    try:
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True,
+                              cwd=Path(__file__).parent).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def _timed(fn):
+    t0 = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - t0, out
+
+
+def measure(out3d: Path, out2d: Path | None) -> list[list[str]]:
+    """Rows (what, conditions, wall time) of the costs."""
+    from hydrojam.actuator.movie import write_movie, written_states
+    from hydrojam.actuator.page import final_state, write_run_page
+    from hydrojam.actuator.render import render_state
+
+    rows = []
+    mesh = final_state(out3d)
+    size = (900, 800)
+    t_first, _ = _timed(lambda: render_state(mesh, size=size))
+    t_again, _ = _timed(lambda: render_state(mesh, size=size))
+    n_cells = len(mesh.cells[0].data)
+    rows.append(["3D render of the final state (final.png's), first in a process",
+                 f"{n_cells} tetra10 (whole actuator), {size[0]} x {size[1]} px; PyVista import and OpenGL context included",
+                 f"{t_first:.1f} s"])
+    rows.append(["3D render, again in the process", "the same", f"{t_again:.1f} s"])
+    with tempfile.TemporaryDirectory() as tmp:
+        for out, label in ((out3d, "3D"), (out2d, "2D")):
+            if out is None:
+                continue
+            n = len(written_states(out))
+            gif = Path(tmp) / f"movie{label}.gif"
+            t, _ = _timed(lambda: write_movie(out, gif))
+            rows.append([f"{label} movie (`hydrojam animate`)", f"{n} states, 800 x 700 px, GIF {gif.stat().st_size / 1e6:.1f} MB",
+                         f"{t:.1f} s ({t / n:.2f} s a frame)"])
+        page = Path(tmp) / "page"
+        page.mkdir()
+        for name in ("metrics.json", "design.toml", "final.png"):
+            if (out3d / name).is_file():
+                (page / name).write_bytes((out3d / name).read_bytes())
+        t, path = _timed(lambda: write_run_page(page, mesh))
+        rows.append(["3D run's report.html", f"final.png and the 3D view inlined: {path.stat().st_size / 1e6:.1f} MB",
+                     f"{t:.2f} s"])
+    return rows
+
+
+def markdown(rows: list[list[str]]) -> str:
+    import vtkmodules
+
+    from hydrojam.actuator.render import _pyvista
+
+    pv = _pyvista()
+    window = type(pv.Plotter(off_screen=True).render_window).__name__
+    lines = [f"Measured by `benchmarks/pictures.py`: code of `{_commit()}`, {os.cpu_count()} cores, one process, "
+             f"PyVista {_version('pyvista')} / VTK {vtkmodules.__version__} through {window} (software OpenGL, no GPU).",
+             "", "| what | conditions | wall time |", "|---|---|---:|"]
+    lines += [f"| {a} | {b} | {c} |" for a, b, c in rows]
+    return "\n".join(lines) + "\n"
+
+
+def replace_section(page: str, name: str, text: str) -> str:
+    """``page`` with the lines between '<!-- pictures.py: NAME -->' and its closing marker replaced."""
+    begin, end = f"<!-- pictures.py: {name} -->", f"<!-- /pictures.py: {name} -->"
+    i, j = page.find(begin), page.find(end)
+    if i < 0 or j < i:
+        raise ValueError(f"no section {begin} ... {end} in the page")
+    return page[: i + len(begin)] + "\n" + text.rstrip("\n") + "\n" + page[j:]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("out3d", type=Path, help="a finished 3D run's folder")
+    ap.add_argument("out2d", type=Path, nargs="?", help="a finished 2D run's folder")
+    ap.add_argument("--markdown", help="write the table into this page's section 'costs'")
+    args = ap.parse_args()
+    print_environment(["pyvista", "vtk", "matplotlib", "pillow"])
+    rows = measure(args.out3d, args.out2d)
+    text = markdown(rows)
+    print(text)
+    if args.markdown:
+        page = Path(args.markdown)
+        page.write_text(replace_section(page.read_text(encoding="utf-8"), "costs", text), encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()
