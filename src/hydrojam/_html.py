@@ -101,6 +101,11 @@ def markdown_html(text: str, base: str | os.PathLike) -> str:
     return re.sub(r'(<img src=)"([^"]*)"', inline, out)
 
 
+def markdown_page(text: str, base: str | os.PathLike, title: str) -> str:
+    """A whole page (:func:`page_html`) of a Markdown report, its local figures inlined from ``base``."""
+    return page_html(title, markdown_html(text, base))
+
+
 def _b64(a: np.ndarray) -> str:
     return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
 
@@ -150,4 +155,4 @@ def page_html(title: str, body: str) -> str:
             f"<style>{_CSS}</style></head><body>\n{body}\n{scripts}</body></html>\n")
 
 
-__all__ = ["page_html", "scene_html", "scene_group", "markdown_html", "table_html", "figure_html", "data_uri"]
+__all__ = ["page_html", "markdown_page", "scene_html", "scene_group", "markdown_html", "table_html", "figure_html", "data_uri"]
