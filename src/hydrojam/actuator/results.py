@@ -118,6 +118,17 @@ def write_vtu(path: Path, model: ActuatorModel, state: StepState) -> None:
         meshio.write(tmp, vtu_mesh(model, state), file_format="vtu")
 
 
+def plot_state(model: ActuatorModel, state: StepState, path: Path) -> None:
+    """final.png of a state (:func:`~hydrojam.actuator.plots.plot_actuator`); in 3D with a render
+    of the whole actuator beside the section (with PyVista; without it, said once)."""
+    img = None
+    if model.mesh.dim == 3 and renders_available():
+        img = render_state(vtu_mesh(model, state), size=(900, 800))
+    m = state.metrics
+    plot_actuator(model, state, path, render=img,
+                  render_title=render_title(m["bending_angle_deg"], m["tip_dx_mm"], m["tip_dz_mm"], state.T))
+
+
 def pvd_text(entries: list[tuple[float, str]]) -> str:
     """A ParaView collection (.pvd) of (time, relative file) entries."""
     lines = ['<?xml version="1.0"?>',
@@ -246,12 +257,6 @@ class ResultWriter:
             self.entries.append((state.s if state.time_s is None else state.time_s, rel))
             write_text_atomic(self.out / "results.pvd", pvd_text(self.entries))
 
-    def _render(self, state: StepState):
-        """A 3D state's render for final.png (None in 2D, or without PyVista: said once)."""
-        if self.model.mesh.dim != 3 or not renders_available():
-            return None
-        return render_state(vtu_mesh(self.model, state), size=(900, 800))
-
     def finish(self, result: SimulationResult, plot: bool = True, page: bool = False) -> dict:
         """Write centreline.csv, metrics.json and final.png (and angle_time.png on a time-resolved
         path), with ``page`` report.html (:mod:`hydrojam.actuator.page`); returns the metrics written."""
@@ -268,9 +273,7 @@ class ResultWriter:
         metrics["timings_s"] = finite_or_none(result.timings)
         metrics["provenance"] = run_provenance(model.design.replicas.index, model.design.replicas.seed)
         if plot:
-            m = final.metrics
-            plot_actuator(model, final, self.out / "final.png", render=self._render(final),
-                          render_title=render_title(m["bending_angle_deg"], m["tip_dx_mm"], m["tip_dz_mm"], final.T))
+            plot_state(model, final, self.out / "final.png")
             if model.path.timed:
                 plot_angle_time(result.states, model.path.schedule, self.out / "angle_time.png")
         if result.resumed:
@@ -282,4 +285,4 @@ class ResultWriter:
         return metrics
 
 
-__all__ = ["ResultWriter", "vtu_mesh", "write_vtu", "mirrored_half", "pvd_text", "history_row", "ordered_metrics", "HISTORY_COLUMNS"]
+__all__ = ["ResultWriter", "plot_state", "vtu_mesh", "write_vtu", "mirrored_half", "pvd_text", "history_row", "ordered_metrics", "HISTORY_COLUMNS"]
