@@ -232,9 +232,11 @@ class Renderer:
             mesh.cell_data["swelling ratio J"] = surf.swelling[gel]
             mesh = mesh.cell_data_to_point_data()
             p.add_mesh(mesh, scalars="swelling ratio J", cmap=SWELLING_CMAP, clim=clim, smooth_shading=True,
-                       scalar_bar_args={"title": "particle swelling ratio J", "vertical": True, "height": 0.5,
-                                        "position_x": 0.8, "position_y": 0.2, "fmt": "%.2f",
-                                        "title_font_size": 18, "label_font_size": 17, "color": "black"})
+                       scalar_bar_args={"title": "", "vertical": False, "width": 0.5,
+                                        "height": 0.08, "position_x": 0.25, "position_y": 0.05, "fmt": "%.1f",
+                                        "n_labels": 5, "title_font_size": 18, "label_font_size": 16,
+                                        "color": "black"})
+            p.add_text("particle swelling ratio J", position="lower_edge", font_size=11, color="black")
         layer = surf.group("strain_limit")
         if layer.any():
             p.add_mesh(_poly(pv, surf.points, surf.triangles[layer]), color=STRAIN_LIMIT_RGB, smooth_shading=False)
