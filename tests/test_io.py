@@ -146,3 +146,142 @@ def test_an_output_folder_of_another_kind_is_refused_and_its_own_kind_reopens(tm
     with pytest.raises(NotADirectoryError):
         with _io.output_folder(tmp_path / "file", "run"):
             pass
+
+
+# -------------------------------------------------------------------- faults: a kill, a full disk, a read-only folder
+
+#: a process that takes a run's folder and is killed (SIGKILL) while it writes the N-th NAME
+#: (argv: OUT NAME N): after the writer, before the rename (the fault-injection hook of _io)
+_KILLED_WRITER = """
+import os, signal, sys
+from pathlib import Path
+from hydrojam import _io
+out, name, n, count = Path(sys.argv[1]), sys.argv[2], int(sys.argv[3]), {}
+def kill(path):
+    count[path.name] = count.get(path.name, 0) + 1
+    if path.name == name and count[path.name] == n:
+        os.kill(os.getpid(), signal.SIGKILL)
+_io.before_replace = kill
+with _io.output_folder(out, "run"):
+    for i in range(3):
+        _io.write_text_atomic(out / "history.csv", f"s\\n{i}\\n")
+        _io.write_text_atomic(out / "checkpoint.npz", f"state {i}")
+        _io.write_text_atomic(out / "steps" / f"step_{i:04d}.vtu", f"state {i}")
+"""
+
+
+def _temporaries(out):
+    return sorted(p.relative_to(out).as_posix() for p in out.rglob(".*") if _io.is_stale_temporary(p.name))
+
+
+@pytest.mark.skipif(os.name != "posix", reason="SIGKILL")
+def test_the_temporary_of_a_write_a_kill_interrupted_is_removed_when_the_folder_is_taken(tmp_path):
+    """A kill inside an atomic write leaves its temporary file (``.NAME.XXXXXXXX.SUFFIX``) and the
+    lock; the next process to take the folder removes those temporaries (there and in its
+    steps/, figures/, points/*/), takes the dead process's lock over, and leaves every other file
+    alone, hidden or look-alike."""
+    out = tmp_path / "out"
+    killed = [sys.executable, "-c", _KILLED_WRITER, str(out)]
+    done = subprocess.run([*killed, "checkpoint.npz", "2"], capture_output=True, text=True)
+    assert done.returncode == -9, done.stderr
+    (left,) = _temporaries(out)
+    assert left.startswith(".checkpoint.npz.") and left.endswith(".npz"), left
+    assert (out / _io.FOLDER_LOCK).exists()  # the killed process's
+    done = subprocess.run([*killed, "step_0001.vtu", "1"], capture_output=True, text=True)
+    assert done.returncode == -9, done.stderr  # the dead one's lock taken over, its temporary removed
+    (left,) = _temporaries(out)
+    assert left.startswith("steps/.step_0001.vtu.") and left.endswith(".vtu"), left
+    (out / "points" / "k").mkdir(parents=True)
+    (out / "points" / "k" / ".final.png.ab_cd123.png").write_text("")  # a study point's
+    user = [".notes.txt", ".bashrc", "data.abcd1234.npz", ".final.png.abcd1234.npz", ".final.png.abc.png",
+            ".metrics.json.abcd1234"]
+    for name in user:
+        (out / name).write_text("mine")
+    (out / "other").mkdir()
+    (out / "other" / ".final.png.abcd1234.png").write_text("mine")  # not a folder hydrojam writes
+    with _io.output_folder(out, "run"):
+        assert json.loads((out / _io.FOLDER_LOCK).read_text())["pid"] == os.getpid()
+        assert _temporaries(out) == ["other/.final.png.abcd1234.png"]
+    assert all((out / name).read_text() == "mine" for name in user)
+    assert _io.is_stale_temporary(".x.abcd1234") and not _io.is_stale_temporary(".x.txt.abcd1234")
+
+
+def test_a_lock_that_cannot_be_written_is_not_left_and_the_error_names_it(tmp_path, monkeypatch):
+    """A full disk while the lock is written: the OSError names the lock file (so its folder),
+    and no lock is left to block the next run."""
+    import errno
+
+    real = os.fdopen
+
+    class Full:
+        def __init__(self, fd, *args, **kwargs):
+            self.f = real(fd, *args, **kwargs)
+
+        def __enter__(self):
+            return self
+
+        def write(self, text):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+        def __exit__(self, *exc):
+            self.f.close()
+
+    monkeypatch.setattr(_io.os, "fdopen", Full)
+    with pytest.raises(OSError, match="No space left") as err:
+        with _io.output_folder(tmp_path / "out", "run"):
+            pass
+    assert err.value.filename == str(tmp_path / "out" / _io.FOLDER_LOCK)
+    assert _listing(tmp_path / "out") == []
+
+
+def test_an_unreadable_lock_is_taken_over_once_it_is_old_and_its_state_says_so(tmp_path):
+    """An empty or garbled lock (a process killed or a disk full while it wrote it) blocks only
+    while it could still be being written; then it counts as a dead process's and is taken over.
+    :func:`lock_state` says whether a lock's process lives."""
+    lock = tmp_path / _io.FOLDER_LOCK
+    assert _io.lock_state(lock) is None
+    lock.write_text("")
+    assert _io.lock_state(lock) == (_io.LockState.UNKNOWN, {})
+    old = os.stat(lock).st_mtime - _io.UNREADABLE_LOCK_S - 1
+    os.utime(lock, (old, old))
+    assert _io.lock_state(lock) == (_io.LockState.DEAD, {})
+    with _io.hold_lock(lock):
+        assert _io.lock_state(lock)[0] == _io.LockState.LIVE
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                          text=True, check=True)
+    lock.write_text(json.dumps({"pid": int(dead.stdout), "host": socket.gethostname()}))
+    assert _io.lock_state(lock)[0] == _io.LockState.DEAD
+    lock.write_text(json.dumps({"pid": 1, "host": "another-host.invalid"}))
+    assert _io.lock_state(lock)[0] == _io.LockState.ELSEWHERE
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="needs POSIX permissions, not root")
+def test_a_folder_made_read_only_midway_reports_the_write_that_failed(tmp_path):
+    """The error is the failed write's, naming its file, not the lock file's removal that then
+    fails too (the lock stays: its process's end makes it stale)."""
+    out = tmp_path / "out"
+    try:
+        with pytest.raises(PermissionError) as err:
+            with _io.output_folder(out, "run"):
+                out.chmod(0o555)
+                _io.write_text_atomic(out / "metrics.json", "{}")
+        assert err.value.filename == str(out / "metrics.json"), err.value
+        assert "cannot be written" in str(err.value)
+    finally:
+        out.chmod(0o755)
+
+
+def test_a_lock_that_cannot_be_removed_after_a_failed_write_does_not_hide_that_write(tmp_path, monkeypatch):
+    """As a read-only folder does to a process that may write anywhere (root): the lock's removal
+    fails too, and the write's error is the one raised."""
+    import errno
+    from pathlib import Path
+
+    def read_only(self, missing_ok=False):
+        raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(self))
+
+    with pytest.raises(PermissionError) as err:
+        with _io.output_folder(tmp_path / "out", "run"):
+            monkeypatch.setattr(Path, "unlink", read_only)
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(tmp_path / "out" / "metrics.json"))
+    assert err.value.filename.endswith("metrics.json")

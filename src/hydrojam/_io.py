@@ -1,6 +1,6 @@
 """Atomic file output (a reader never sees a half-written result) with the user's permissions,
-a lock file that keeps two processes from writing one folder, and the one rule for non-finite
-values in outputs."""
+the removal of what an interrupted write left, a lock file that keeps two processes from writing
+one folder, and the one rule for non-finite values in outputs."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import errno
 import json
 import math
 import os
+import re
 import socket
 import tempfile
 import time
@@ -32,7 +33,7 @@ def check_file_target(path: str | os.PathLike) -> None:
     """Refuse, before anything is created, a file path that cannot be written: an OSError naming
     the path when ``path`` is a folder (IsADirectoryError), when its nearest existing ancestor is
     not a folder (NotADirectoryError: a parent is a regular file) or cannot be written into
-    (PermissionError). Folders still missing between that ancestor and the file are not made
+    (PermissionError naming the file and that folder). Folders still missing between that ancestor and the file are not made
     here."""
     path = Path(path)
     if path.is_dir():
@@ -43,7 +44,8 @@ def check_file_target(path: str | os.PathLike) -> None:
     if not ancestor.is_dir():
         raise NotADirectoryError(errno.ENOTDIR, "a parent of the file is not a folder", os.fspath(ancestor))
     if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise PermissionError(errno.EACCES, "the folder cannot be written into", os.fspath(ancestor))
+        raise PermissionError(errno.EACCES, f"cannot be written (its folder {ancestor} cannot be written into)",
+                              os.fspath(path))
 
 
 def _umask() -> int:
@@ -66,6 +68,49 @@ def file_mode() -> int:
     return 0o666 & ~_umask()
 
 
+#: called with the target path after a writer has written its temporary file and before the
+#: rename (:func:`atomic_path`); None in use. A fault-injection point for tests: a hook that kills
+#: the process at a chosen write leaves what a kill at that moment leaves.
+before_replace = None
+
+#: the temporary file of :func:`atomic_path` for a file NAME: ``.NAME.`` + tempfile's 8 random
+#: characters + NAME's suffix (checked separately: :func:`is_stale_temporary`)
+_TEMPORARY = re.compile(r"\.(?P<name>.+)\.[a-z0-9_]{8}(?P<suffix>\.[^.]*)?")
+
+
+def is_stale_temporary(name: str) -> bool:
+    """Whether the file name ``name`` is that of an atomic write's temporary file,
+    ``.NAME.XXXXXXXX.SUFFIX`` with SUFFIX the suffix of NAME (none where NAME has none): what a
+    process killed while writing NAME leaves (:func:`atomic_path`)."""
+    m = _TEMPORARY.fullmatch(name)
+    return m is not None and (m["suffix"] or "") == Path(m["name"]).suffix
+
+
+#: the subfolders of an output folder where hydrojam writes files (glob patterns), besides the
+#: folder itself: a run's steps, a study's figures and points
+OUTPUT_SUBFOLDERS = ("steps", "figures", "points/*", "points/*/steps")
+
+
+def remove_stale_temporaries(folder: str | os.PathLike, subfolders=OUTPUT_SUBFOLDERS) -> list[Path]:
+    """Remove the temporary files that interrupted atomic writes left (:func:`is_stale_temporary`)
+    in ``folder`` and its ``subfolders`` (glob patterns), where hydrojam writes; any other file,
+    and any other folder, is left alone. Call it holding the folder's lock (no writer of ours
+    is then under way there). Returns the paths removed; one that cannot be removed is left."""
+    folder = Path(folder)
+    removed = []
+    for sub in (folder, *(p for pattern in subfolders for p in sorted(folder.glob(pattern)))):
+        try:
+            entries = list(os.scandir(sub))
+        except OSError:
+            continue
+        for entry in entries:
+            if is_stale_temporary(entry.name) and entry.is_file(follow_symlinks=False):
+                with contextlib.suppress(OSError):
+                    os.unlink(entry.path)
+                    removed.append(Path(entry.path))
+    return removed
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike):
     """Yield a temporary path beside ``path``; on success it replaces ``path`` in one rename.
@@ -74,7 +119,10 @@ def atomic_path(path: str | os.PathLike):
     0600. The target is checked first (:func:`check_file_target`: a folder, a parent that is a
     file, a folder that cannot be written), so a refused path leaves its folder unchanged, not
     even a temporary file made and removed. An OSError (not a folder, no permission, no space,
-    read-only) names ``path``, not the temporary file; nothing is left behind.
+    read-only) names ``path``, not the temporary file; nothing is left behind. A process killed
+    while it writes leaves its temporary file, ``.NAME.XXXXXXXX.SUFFIX`` beside ``path``
+    (:func:`is_stale_temporary`); the next run that takes the folder removes it
+    (:func:`remove_stale_temporaries`).
     """
     path = Path(path)
     tmp = None
@@ -88,6 +136,8 @@ def atomic_path(path: str | os.PathLike):
             raise
         os.close(fd)
         yield Path(tmp)
+        if before_replace is not None:
+            before_replace(path)
         os.chmod(tmp, file_mode())  # after the writer: some replace the file they are given
         os.replace(tmp, path)
     except OSError as err:
@@ -188,36 +238,103 @@ def _alive(pid: int) -> bool:
     return True
 
 
+#: seconds after which a lock file that cannot be read (empty, not JSON) is taken as left by a
+#: dead process: its writer writes it at once after creating it (:func:`hold_lock`)
+UNREADABLE_LOCK_S = 10.0
+
+
+class LockState(enum.StrEnum):
+    """Whether the process that holds a lock file lives (:func:`lock_state`)."""
+
+    LIVE = "live"  # a live process of this host
+    DEAD = "dead"  # a process of this host that is gone, or an unreadable lock older than UNREADABLE_LOCK_S
+    ELSEWHERE = "elsewhere"  # a process of another host (which cannot be checked)
+    UNKNOWN = "unknown"  # a lock that cannot be read yet (being written)
+
+
+def lock_state(path: str | os.PathLike) -> tuple[LockState, dict] | None:
+    """The lock file ``path``'s state and content (pid, host, started; empty where it cannot be
+    read): None where there is no lock file. Its process is dead where it is of this host and
+    gone, or where the lock cannot be read and has been there over :data:`UNREADABLE_LOCK_S`
+    (a killed writer's, or a full disk's)."""
+    path = Path(path)
+    if not os.path.lexists(path):
+        return None
+    held = read_json_dict(path) or {}
+    pid, host = held.get("pid"), held.get("host")
+    if not isinstance(pid, int) or not isinstance(host, str):
+        try:
+            age = time.time() - path.lstat().st_mtime
+        except FileNotFoundError:
+            return None
+        return (LockState.DEAD if age > UNREADABLE_LOCK_S else LockState.UNKNOWN), {}
+    if host != socket.gethostname():
+        return LockState.ELSEWHERE, held
+    return (LockState.LIVE if _alive(pid) else LockState.DEAD), held
+
+
+def _create_lock(path: Path, me: dict) -> bool:
+    """Create the lock file ``path`` holding ``me`` (JSON), exclusively: False where it exists.
+    Where writing it fails (a full disk), it is removed again and the OSError names it."""
+    try:
+        fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, file_mode())
+    except FileExistsError:
+        return False
+    except OSError as err:
+        err.filename = os.fspath(path)
+        raise
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(me, f)
+    except BaseException as err:
+        with contextlib.suppress(OSError):
+            path.unlink()
+        if isinstance(err, OSError) and err.filename is None:
+            err.filename = os.fspath(path)
+        raise
+    return True
+
+
 @contextlib.contextmanager
 def hold_lock(path: str | os.PathLike):
     """Hold the lock file ``path`` (its folder must exist) while the block runs: created
     exclusively with this process's pid, host and start time (JSON), removed at the end. A lock
-    left by a process of this host that is no longer alive (killed) is taken over; one held by a
-    live process, or written on another host, raises :class:`LockHeld` and is left alone."""
+    whose process is dead (:func:`lock_state`: a killed run of this host, or an unreadable lock
+    left by a killed or failed write) is taken over; one held by a live process, or written on
+    another host, raises :class:`LockHeld` and is left alone. An OSError creating it (no space,
+    no permission) names the lock file, and leaves none."""
     path = Path(path)
     me = {"pid": os.getpid(), "host": socket.gethostname(), "started": time.strftime("%Y-%m-%d %H:%M:%S")}
     for _ in range(2):
-        try:
-            fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, file_mode())
-        except FileExistsError:
-            held = read_json_dict(path) or {}
-            pid, host = held.get("pid"), held.get("host")
-            if host == me["host"] and isinstance(pid, int) and not _alive(pid):
-                path.unlink(missing_ok=True)  # its process was killed: stale
-                continue
-            who = (f"process {pid} on {host}" + (f" since {held['started']}" if held.get("started") else "")
-                   if held else "an unknown process (the lock file cannot be read)")
-            raise LockHeld(f"{path.parent}: in use by {who} (its lock file {path.name}); wait for it or stop "
-                           f"it, or, if nothing runs there, delete {path}") from None
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(me, f)
-        break
+        if _create_lock(path, me):
+            break
+        state = lock_state(path)
+        if state is None:
+            continue  # removed meanwhile
+        state, held = state
+        if state == LockState.DEAD:
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()  # its process was killed: stale
+            continue
+        pid, host = held.get("pid"), held.get("host")
+        who = (f"process {pid} on {host}" + (f" since {held['started']}" if held.get("started") else "")
+               if held else "an unknown process (the lock file cannot be read)")
+        raise LockHeld(f"{path.parent}: in use by {who} (its lock file {path.name}); wait for it or stop "
+                       f"it, or, if nothing runs there, delete {path}") from None
     else:  # pragma: no cover - another process took the stale lock between our two tries
         raise LockHeld(f"{path.parent}: in use (its lock file {path.name} was taken over by another process)")
+    failed = True
     try:
         yield path
+        failed = False
     finally:
-        path.unlink(missing_ok=True)
+        try:
+            path.unlink(missing_ok=True)
+        except OSError:
+            # a folder made read-only meanwhile: the lock stays (its process's end makes it
+            # stale); the error that stopped the block is the one to report
+            if not failed:
+                raise
 
 
 class FolderKind(enum.StrEnum):
@@ -279,11 +396,13 @@ def output_folder(path: str | os.PathLike, kind: FolderKind):
     refused before anything is written when it is not a folder (NotADirectoryError), holds
     another kind (FolderKindError) or another live process holds its lock (LockHeld); then made
     and held (:func:`hold_lock`, the lock file :data:`FOLDER_LOCK`) while the block runs, its kind
-    checked again under the lock. Yields the folder's Path."""
+    checked again under the lock and the temporary files of interrupted writes removed
+    (:func:`remove_stale_temporaries`). Yields the folder's Path."""
     path = Path(path)
     if os.path.lexists(path) and not path.is_dir():
         raise NotADirectoryError(errno.ENOTDIR, "exists and is not a folder", os.fspath(path))
     check_folder_kind(path, kind)
     with hold_lock(make_folder(path) / FOLDER_LOCK):
         check_folder_kind(path, kind)  # another process may have written it meanwhile
+        remove_stale_temporaries(path)
         yield path

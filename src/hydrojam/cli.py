@@ -49,6 +49,27 @@ class InputError(Exception):
     """Invalid user input: reported as one line, exit status 2."""
 
 
+class _Stopped(Exception):
+    """A command stopped by a signal (:class:`hydrojam._interrupt.Interrupted`), its clean-up
+    done: reported as one line, what stopped it and ``where`` it stands, exit status 128 + the
+    signal's number."""
+
+    def __init__(self, stop, where: str):
+        super().__init__(f"stopped by {stop.words}{where}")
+        self.stop = stop
+
+
+def _stopped(err: BaseException, where) -> None:
+    """Raise :class:`_Stopped` with ``where()`` (where the command stands, e.g. " at s = 0.41;
+    ...") when a signal is behind ``err`` (:func:`hydrojam._interrupt.interruption`); return
+    otherwise (the caller re-raises ``err``)."""
+    from hydrojam._interrupt import interruption
+
+    stop = interruption(err)
+    if stop is not None:
+        raise _Stopped(stop, where()) from None
+
+
 def _print_version(value: bool) -> None:
     if value:
         from hydrojam._version import __version__
@@ -344,7 +365,30 @@ def _output_folder(out: Path, kind: FolderKind):
 
 def _run_one(design, design_file: Path, out: Path, vtu: bool, fresh: bool, quiet: bool) -> None:
     """Run ``design`` into ``out`` (a folder this process holds) with a progress bar, going on
-    from its checkpoint unless ``fresh``; the summary; exit 1 when the solver stopped early."""
+    from its checkpoint unless ``fresh``; the summary; exit 1 when the solver stopped early.
+    Stopped by a signal: :class:`_Stopped`, saying the s reached and that the checkpoint is kept."""
+    try:
+        _run_model(design, design_file, out, vtu, fresh, quiet)
+    except BaseException as err:
+        _stopped(err, lambda: _run_stand(out))
+        raise
+
+
+def _run_stand(out: Path) -> str:
+    """Where a run into ``out`` stopped midway stands, and how to go on, as the end of a line."""
+    from hydrojam.actuator.checkpoint import CHECKPOINT
+    from hydrojam.study.cache import point_progress
+
+    checkpoint = out / CHECKPOINT
+    if not checkpoint.is_file():
+        return " before its first load step was kept (no checkpoint yet); run the same command again to start it"
+    progress = point_progress(out)
+    where = ("" if progress is None else " in the release of the stabilisation at s = 1" if progress[0] >= 1.0
+             else f" at s = {progress[0]:.3f}")
+    return f"{where}; its checkpoint {checkpoint} is kept: run the same command again to go on from there"
+
+
+def _run_model(design, design_file: Path, out: Path, vtu: bool, fresh: bool, quiet: bool) -> None:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from hydrojam.actuator.model import build_model
@@ -627,6 +671,10 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
             if outcome.status == PointStatus.NOT_CONVERGED:
                 info = f"[yellow]{info} (stopped early)[/yellow]"
         info += " (cached)" if outcome.cached else ""
+        if outcome.damaged and not quiet:
+            console.print(f"hydrojam: {_point_label(outcome.points)}: computed again, its {', '.join(outcome.damaged)} "
+                          "no longer matching the checksum kept when it finished", soft_wrap=True, highlight=False,
+                          markup=False)
         last_info[0] = info
         progress.update(task, completed=done, total=total, info=info)
         if log and not quiet and not outcome.cached:
@@ -642,6 +690,11 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
         raise InputError(f"--scheduler: {err}") from None
     except DesignError as err:
         raise InputError(str(err)) from None
+    except BaseException as err:
+        if progress.live.is_started:
+            progress.stop()
+        _stopped(err, lambda: _sweep_stand(out, progress.tasks[0]))
+        raise
     finally:
         if progress.live.is_started:
             progress.stop()
@@ -665,6 +718,19 @@ def _run_with_progress(run_points, out: Path, quiet: bool, report: bool = False,
                       f"early; see the status and error columns of {out / 'results.csv'} (a rerun retries the "
                       f"failed ones)[/red]", soft_wrap=True)
         raise typer.Exit(code=1)
+
+
+def _sweep_stand(out: Path, task) -> str:
+    """Where a study's run into ``out`` stopped midway stands (``task``: its progress bar's task,
+    points done of total), and how to go on, as the end of a line."""
+    from hydrojam.actuator.checkpoint import CHECKPOINT
+
+    done = int(task.completed or 0)
+    finished = f"{done} of {int(task.total)} points finished" if task.total else f"{done} points finished"
+    kept = sum(1 for f in (out / "points").glob(f"*/{CHECKPOINT}")
+               if not (f.parent / "point.json").exists()) if (out / "points").is_dir() else 0
+    checkpoints = f", {kept} unfinished keep their checkpoints" if kept else ""
+    return f": {finished} (in {out / 'points'}){checkpoints}; run the same command again to go on"
 
 
 def _check_nothing_runs(flag: str, workers: Optional[int], scheduler: Optional[str], out: Path) -> None:
@@ -723,14 +789,17 @@ def reproduce(
     compare_2d: Optional[Path] = typer.Option(None, "--compare-2d", help="With --dimension 3: the output folder of the 2D study of the same kind (quick or full); the report adds a 2D-against-3D table."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes, one thread each (default: one per CPU)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of a running dask scheduler, e.g. tcp://10.0.0.5:8786."),
-    sweep: list[str] = typer.Option([], "--sweep", help="Run only this sweep (repeatable): temperature, particle_layers, strain_limit_thickness; a later run into the same folder adds the others."),
+    sweep: list[str] = typer.Option([], "--sweep", help="Run only this sweep (repeatable): temperature, particle_layers, strain_limit_thickness, and in 3D strain_limit_width (the paper's h read as the strip's width); a later run into the same folder adds the others."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
     replicas: int = typer.Option(1, "--replicas", help="Replicas per point: the table and figures give their mean and spread, and a statement agrees or disagrees only beyond the spread."),
     report_only: bool = typer.Option(False, "--report-only", help="Run nothing: the table, figures and report.md of the points finished in OUT so far, the others shown as not finished (an interim report of a study in progress)."),
+    overrides: list[str] = typer.Option([], "--set", help="Change a model choice for every point, e.g. --set friction=0.1 (repeatable): a study of its own, for its own output folder (docs/reproduce.md, \"Sensitivity\")."),
+    write_results: list[Path] = typer.Option([], "--write-results", help="A Markdown page whose sections '<!-- reproduce: STUDY -->' (and 'STUDY verdicts') take the results table and verdicts, with a line of conditions (repeatable; e.g. README.md, docs/reproduce.md)."),
 ) -> None:
     """Reproduce the paper's Section IV (2D, or 3D with --dimension 3): the temperature,
-    particle-layer and strain-limit thickness sweeps, their figures and OUT/report.md (the
-    paper's statements, agree/disagree; in 3D also 2D against 3D with --compare-2d).
+    particle-layer and strain-limit thickness sweeps (in 3D also the strip width), their figures and
+    OUT/report.md (the paper's statements, agree/disagree, per state of the replicas; in 3D also 2D
+    against 3D with --compare-2d).
 
     Cached and resumable like `hydrojam sweep`. Exit status 0 when every point converged (with
     --report-only: every finished one), 1 when any failed or stopped early (the report is still
@@ -738,13 +807,18 @@ def reproduce(
     """
     from hydrojam.paper.compare import CompareError, read_2d_results
     from hydrojam.paper.reproduce import reproduce as run_reproduce
-    from hydrojam.paper.study import DIMENSIONS, paper_study
+    from hydrojam.paper.sections import SectionError, check_page
+    from hydrojam.paper.study import DIMENSIONS, paper_study, study_name
 
     if dimension not in DIMENSIONS:
         raise InputError(f"--dimension: allowed {' or '.join(map(str, DIMENSIONS))} (got {dimension})")
     if compare_2d is not None and dimension != 3:
         raise InputError("--compare-2d: only with --dimension 3 (it compares the 3D study with a 2D one)")
     _check_replicas(replicas)
+    try:
+        paper_study(quick, dimension=dimension, overrides=overrides)
+    except ValueError as err:
+        raise InputError(str(err)) from None
     try:
         paper_study(quick, sweep or None, dimension=dimension)
     except ValueError as err:
@@ -758,15 +832,21 @@ def reproduce(
             read_2d_results(compare_2d, quick)
         except CompareError as err:
             raise InputError(f"--compare-2d: {err}") from None
+    for page in write_results:
+        try:
+            check_page(page, study_name(quick, dimension, overrides))
+        except SectionError as err:
+            raise InputError(f"--write-results: {err}") from None
     if report_only:
         _interim_report(lambda: run_reproduce(out, quick=quick, sweeps=sweep or None, replicas=replicas,
-                                              dimension=dimension, compare_2d=compare_2d, report_only=True),
+                                              dimension=dimension, compare_2d=compare_2d, report_only=True,
+                                              results_pages=write_results, overrides=overrides),
                         out, quiet)
         return
     _run_with_progress(lambda on_point, on_running: run_reproduce(
                            out, quick=quick, workers=workers, scheduler=scheduler, sweeps=sweep or None,
                            on_point=on_point, replicas=replicas, dimension=dimension, compare_2d=compare_2d,
-                           on_running=on_running),
+                           on_running=on_running, results_pages=write_results, overrides=overrides),
                        out, quiet, report=True)
 
 
@@ -937,8 +1017,8 @@ def status(
     """Where an output folder stands, read from its files (nothing runs): each point of its study
     (or the run) finished, failed, unfinished (the s reached; at s = 1 how far the release has
     gone) or not started, and when it was last written. A run going on in another process shows
-    as unfinished. Rerun the command that made the folder to go on. Exit status 0, 2 for a folder
-    that is not hydrojam's.
+    as unfinished, its lock as in use; a run whose process is gone (killed) as stopped. Rerun the
+    command that made the folder to go on. Exit status 0, 2 for a folder that is not hydrojam's.
     """
     import time
 
@@ -972,13 +1052,28 @@ def status(
     console.print(table)
     console.print(", ".join(f"{n} {state.replace('_', ' ')}" for state, n in st.counts().items()))
     if st.lock is not None:
-        console.print(f"in use by process {st.lock.get('pid')} on {st.lock.get('host')} since "
-                      f"{st.lock.get('started')} (its lock file; a killed run's is taken over by the next)",
-                      soft_wrap=True, highlight=False, markup=False)
+        console.print(_lock_text(st.lock, st.lock_state), soft_wrap=True, highlight=False, markup=False)
     if st.kind == FolderKind.STUDY and ({PointStatus.UNFINISHED, PointStatus.NOT_STARTED} & set(st.counts())):
         hint = _paper_commands(out, st.name, st.replicas)
         if hint:
             console.print(hint, soft_wrap=True, highlight=False, markup=False)
+
+
+def _lock_text(lock: dict, state) -> str:
+    """The line of ``hydrojam status`` on a folder's lock: the run holding it, or, where its
+    process is gone, that the run was stopped."""
+    from hydrojam._io import LockState
+
+    holder = (f"process {lock.get('pid')} on {lock.get('host')}" + (f" since {lock['started']}" if lock.get("started") else "")
+              if lock else "")
+    if state == LockState.DEAD:
+        return (f"stopped (its process is gone); rerun to resume ({holder or 'its lock file cannot be read'}; "
+                "the next run takes its lock file over)")
+    if not lock:
+        return "in use by an unknown process (its lock file cannot be read yet)"
+    if state == LockState.ELSEWHERE:
+        return f"in use by {holder} (another host, so not checked here; its lock file)"
+    return f"in use by {holder} (its lock file)"
 
 
 @app.command()
@@ -1050,7 +1145,18 @@ def _file_system_error(err: OSError) -> str | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``hydrojam`` command; returns the exit status."""
+    """Entry point of the ``hydrojam`` command; returns the exit status. SIGINT and SIGTERM stop
+    a command cleanly (its lock released, its workers closed) with one line saying what stopped
+    it and where it stands: exit status 130 and 143 (:mod:`hydrojam._interrupt`)."""
+    from hydrojam._interrupt import stop_on_signals
+
+    with stop_on_signals():
+        return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
+    from hydrojam._interrupt import interruption
+
     try:
         _check_environment(sys.argv[1:] if argv is None else list(argv))
         # without standalone mode click returns a typer.Exit's code instead of raising it
@@ -1064,17 +1170,30 @@ def main(argv: list[str] | None = None) -> int:
     except _click_exc.UsageError as err:
         print(f"hydrojam: error: {err.format_message()}", file=sys.stderr)
         return 2
+    except _Stopped as err:
+        print(f"hydrojam: {err}", file=sys.stderr)
+        return err.stop.exit_status
     except typer.Abort:
         print("hydrojam: aborted", file=sys.stderr)
         return 130
     except typer.Exit as ex:
-        return ex.exit_code
+        stop = interruption(ex.__cause__)  # typer's Exit(130) for a KeyboardInterrupt
+        if stop is None:
+            return ex.exit_code
+        print(f"hydrojam: stopped by {stop.words} before it finished; run the same command again", file=sys.stderr)
+        return stop.exit_status
     except OSError as err:
         line = _file_system_error(err)
         if line is None:
             raise
         print(f"hydrojam: error: {line}", file=sys.stderr)
         return 2
+    except BaseException as err:  # a stop outside a command's guard, or a numba kernel's SystemError from it
+        stop = interruption(err)
+        if stop is None:
+            raise
+        print(f"hydrojam: stopped by {stop.words} before it finished; run the same command again", file=sys.stderr)
+        return stop.exit_status
     return status if isinstance(status, int) and not isinstance(status, bool) else 0
 
 

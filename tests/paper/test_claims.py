@@ -10,7 +10,9 @@ from hydrojam.paper import claims as pclaims, study as pstudy
 
 def test_claim_ids_unique_with_reasons():
     ids = [c.id for c in pclaims.PAPER_CLAIMS]
-    assert len(ids) == len(set(ids)) == 10
+    assert len(ids) == len(set(ids)) == 12
+    assert len(pclaims.paper_claims(2)) == 10  # the strip-width reading of h is 3D only
+    assert [c.id for c in pclaims.paper_claims(3)] == ids
     assert set(pclaims.DISAGREEMENT_REASONS) == set(ids)
     assert all("likely" in text for text in pclaims.DISAGREEMENT_REASONS.values())
     assert {c.sweep for c in pclaims.PAPER_CLAIMS} == {s.name for s in pstudy.PAPER_SWEEPS}

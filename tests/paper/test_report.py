@@ -12,18 +12,18 @@ from hydrojam.paper import claims as pclaims, figures as pfigures, report as pre
 def test_report(study_dir):
     out, table = study_dir
     written = pfigures.write_figures(out, table)
-    assert sorted(p.name for p in written) == sorted(f"{s.name}_{k}.png" for s in pstudy.PAPER_SWEEPS
+    assert sorted(p.name for p in written) == sorted(f"{s.name}_{k}.png" for s in pstudy.paper_sweeps(2)
                                                      for k in ("shapes", "trends"))
     path = preport.write_report(out, table, quick=True, wall_time_s=3725.0, workers=2,
                                 explanations={"h-angle": "EXPLAINED BY THE CALLER"})
     assert path == out / "report.md"
     text = path.read_text(encoding="utf-8")
-    for s in pstudy.PAPER_SWEEPS:
+    for s in pstudy.paper_sweeps(2):
         for k in ("shapes", "trends"):
             assert f"](figures/{s.name}_{k}.png)" in text
             assert (out / "figures" / f"{s.name}_{k}.png").read_bytes()[:8] == PNG_MAGIC
     claims = [line for line in text.splitlines() if line.startswith("| ") and " | **" in line]
-    assert [line.split(" | ")[0][2:] for line in claims] == [c.id for c in pclaims.PAPER_CLAIMS]
+    assert [line.split(" | ")[0][2:] for line in claims] == [c.id for c in pclaims.paper_claims(2)]
     assert not re.search(r"\bnan\b|\binf\b", text, re.IGNORECASE)
     assert "**quick**" in text and "mesh size 4 mm" in text and "62.1 min" in text and "Workers: 2 local" in text
     # single runs: the report opens by saying each point is one sample, with the command that measures the spread
@@ -66,7 +66,7 @@ def test_report_and_trends_with_replicas(study_dir, tmp_path):
         if r["status"] != "failed":
             write_point(out, r, bend=-0.3)
     replicated = Table(rows)
-    for s in pstudy.PAPER_SWEEPS:
+    for s in pstudy.paper_sweeps(2):
         pfigures.plot_trends(replicated.select(s.name), s.field, tmp_path / f"{s.name}.png", s.label, s.unit)
         assert (tmp_path / f"{s.name}.png").read_bytes()[:8] == PNG_MAGIC
     text = preport.write_report(out, replicated, quick=True, wall_time_s=60.0,

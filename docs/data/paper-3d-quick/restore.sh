@@ -16,10 +16,13 @@ else
     mkdir -p "$out"
     cp "$here/study.toml" "$out/study.toml"
 fi
+n=0
 for rec in "$here"/*/; do
+    [ -d "$rec" ] || continue  # no record kept yet
+    n=$((n + 1))
     key=$(basename "$rec")
     key=${key#*-}
     mkdir -p "$out/points/$key"
     cp "$rec"* "$out/points/$key/"
 done
-echo "restored $(ls -d "$here"/*/ | wc -l) points into $out"
+echo "restored $n points into $out"

@@ -324,6 +324,13 @@ class Design(BaseModel):
     strain_limit_thickness: float = Field(
         8.0, gt=0, le=MAX_WALL_MM, description="strain-limit layer thickness h, bonded on the -x face over the full length [mm]"
     )
+    strain_limit_width: float | None = Field(
+        None,
+        gt=0,
+        le=MAX_WALL_MM,
+        description="3D only: the strain-limit layer's width along y, a strip centred on the -x face (the paper's "
+        "other reading of h); omitted: the face's full width cavity_depth + 2 side_wall_thickness [mm]",
+    )
     cavity_width: float | None = Field(
         None,
         gt=0, le=MAX_CAVITY_MM,
@@ -452,6 +459,18 @@ class Design(BaseModel):
                 f"cavity_depth: only with dimension = 3 (got cavity_depth {_g(self.cavity_depth)} mm "
                 f"with dimension {self.dimension})"
             )
+        if self.strain_limit_width is not None:
+            if self.dimension != 3:
+                raise ValueError(
+                    f"strain_limit_width: only with dimension = 3 (2D is plane strain: the layer spans the whole "
+                    f"depth; got strain_limit_width {_g(self.strain_limit_width)} mm with dimension {self.dimension})"
+                )
+            face = self.resolved_cavity_depth + 2.0 * self.side_wall_thickness
+            if self.strain_limit_width > face * (1.0 + _REL_TOL):
+                raise ValueError(
+                    f"strain_limit_width: must be in (0, {_g(face)}] mm, the -x face's width cavity_depth + "
+                    f"2 side_wall_thickness (got {_g(self.strain_limit_width)} mm)"
+                )
         if not self.mesh.symmetry and self.dimension != 3:
             raise ValueError(
                 f"mesh.symmetry: false only with dimension = 3 (2D has no depth to cut; got dimension {self.dimension})"
@@ -476,6 +495,12 @@ class Design(BaseModel):
         if h > self.resolved_cavity_length:
             raise ValueError(
                 f"mesh.size: must be <= cavity_length {_g(self.resolved_cavity_length)} mm (got {_g(h)} mm)"
+            )
+        if self.strain_limit_width is not None and self.strain_limit_width / 2.0 < MIN_WALL_PER_MESH * h:
+            need = 2.0 * MIN_WALL_PER_MESH * h
+            raise ValueError(
+                f"strain_limit_width: too narrow for mesh.size {_g(h)} mm: must be >= {_g(need)} mm (each half of "
+                f"the strip >= mesh.size/4), else its elements are slivers (got {_g(self.strain_limit_width)} mm)"
             )
         walls = [("side_wall_thickness", self.side_wall_thickness, 1.0),
                  ("end_wall_thickness", self.end_wall_thickness, 1.0),
@@ -675,7 +700,8 @@ _DERIVED = {
 
 #: an example for optional keys left out (written commented out)
 _EXAMPLES = {"schedule": "[[0, 300], [60, 275], [7200, 275]]",
-             "friction_slip": "0.0008  # 1% of dhat = 0.8 clearance, at the default clearance"}
+             "friction_slip": "0.0008  # 1% of dhat = 0.8 clearance, at the default clearance",
+             "strain_limit_width": "8.0  # 3D only: a strip 8 mm wide centred on the -x face"}
 
 
 def _toml(value) -> str:

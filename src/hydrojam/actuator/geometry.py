@@ -139,14 +139,15 @@ def jitter_particles(mesh: Mesh, design: Design) -> Mesh:
 
 def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, side_wall: float,
                 end_wall: float, strain_limit: float, centres, radius: float, size: float,
-                symmetry: bool = True, order: int = 2) -> Mesh:
+                symmetry: bool = True, order: int = 2, strain_limit_width: float | None = None) -> Mesh:
     """The actuator in 3D (DESIGN.md section 6), quadratic tetrahedra, lengths in mm.
 
     Cavity [-w/2, w/2] x [-D/2, D/2] x [-t1 - cavity_length, -t1] (w width, D depth); membrane:
     the box [-w/2 - t0, w/2 + t0] x [-D/2 - t0, D/2 + t0] x [-L, 0] (L = cavity_length + 2 t1)
     minus the cavity; strain-limit layer [-w/2 - t0 - h, -w/2 - t0] x [-D/2 - t0, D/2 + t0] x
     [-L, 0], bonded to the membrane (shared nodes) and split at its mid-plane x = -w/2 - t0 - h/2
-    so that its mid-surface is a surface of nodes; particles: separate spheres of ``radius``
+    so that its mid-surface is a surface of nodes; with ``strain_limit_width`` b, a strip
+    [-b/2, b/2] in y instead of the face's full width D + 2 t0; particles: separate spheres of ``radius``
     about ``centres`` ((n, 2) as (x, z), on y = 0; or (n, 3)).
 
     ``symmetry``: only the half y >= 0 (particles are half spheres, the cut faces lie on y = 0);
@@ -162,6 +163,7 @@ def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, 
     t0, t1, h = float(side_wall), float(end_wall), float(strain_limit)
     length = lc + 2 * t1
     x_out, y_out = w / 2 + t0, D / 2 + t0
+    y_strip = y_out if strain_limit_width is None else min(float(strain_limit_width) / 2, y_out)
     centres = np.atleast_2d(np.asarray(centres, dtype=float))
     if centres.shape[1] == 2:
         centres = np.column_stack([centres[:, 0], np.zeros(len(centres)), centres[:, 1]])
@@ -175,8 +177,8 @@ def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, 
         outer = occ.addBox(-x_out, 0.0, -length, 2 * x_out, y_out, length)
         cavity = occ.addBox(-w / 2, 0.0, -t1 - lc, w, D / 2, lc)
         (membrane, _) = occ.cut([(3, outer)], [(3, cavity)])
-        walls = membrane + [(3, occ.addBox(-x_out - h, 0.0, -length, h / 2, y_out, length)),
-                            (3, occ.addBox(-x_out - h / 2, 0.0, -length, h / 2, y_out, length))]
+        walls = membrane + [(3, occ.addBox(-x_out - h, 0.0, -length, h / 2, y_strip, length)),
+                            (3, occ.addBox(-x_out - h / 2, 0.0, -length, h / 2, y_strip, length))]
         particles = []
         for c in centres:
             ball = occ.addSphere(c[0], c[1], c[2], radius)
@@ -248,5 +250,5 @@ def mesh_design_3d(design: Design) -> Mesh:
         design.resolved_cavity_width, design.resolved_cavity_depth, design.resolved_cavity_length,
         design.side_wall_thickness, design.end_wall_thickness, design.strain_limit_thickness,
         particle_centres(design), design.particle_diameter / 2, design.mesh.size,
-        symmetry=design.mesh.symmetry, order=2,
+        symmetry=design.mesh.symmetry, order=2, strain_limit_width=design.strain_limit_width,
     )

@@ -78,6 +78,9 @@ STATE_METRICS: tuple[Metric, ...] = (
     Metric("packing_fraction", "-", "particle area / cavity area (3D: volumes)", float, "state", "φ"),
     Metric("contacts_per_particle", "-", "mean coordination number", float, "state", "Z"),
     Metric("mean_swelling_ratio", "-", "particle area / as-prepared area (3D: volumes)", float, "state"),
+    Metric("column_folds", "-", "particle layers out of the column's line: further from the centreline than the "
+           "median layer, or not beyond the layer before, by half a particle diameter (0: the column stays one "
+           "arc; docs/replicas.md, \"States\")", int, "state", "folds"),
 )
 
 #: what a run reports besides its final state's metrics, in the order of metrics.json
@@ -593,6 +596,50 @@ def contacts_per_particle(
     return ends / len(particles)
 
 
+def column_folds(layer_centres, line, diameter: float) -> int:
+    """Folds of a particle column: layers that leave the column's line [-].
+
+    Each layer's centre is projected on the centreline (its nearest point on the polyline) and
+    read as an arc length from the clamp and a distance from the line. A column that stays one arc
+    advances by about a particle diameter a layer and keeps its layers at one distance from the
+    strain-limit layer; where it folds, a layer is pushed out of that line (further from the
+    strain-limit layer than the median layer by half a diameter or more) or set beside the layer
+    before it (an advance along the line below half a diameter). The count is the number of
+    layers pushed out plus the number of neighbouring pairs that do not advance: 0 for one arc.
+
+    Parameters
+    ----------
+    layer_centres : array_like, shape (n, 2)
+        The layers' centres in the bending plane (x, z) [mm], in the as-prepared order from the clamp.
+    line : array_like, shape (c, 2)
+        The centreline's points (x, z) [mm], ordered from the clamp.
+    diameter : float
+        The as-prepared particle diameter d [mm].
+
+    Returns
+    -------
+    int
+    """
+    centres = _as_points(layer_centres, "layer_centres")
+    line = _as_points(line, "line")
+    if len(centres) < 2 or len(line) < 2:
+        return 0
+    a, b = line[:-1], line[1:]
+    seg = b - a
+    seg_len2 = np.einsum("ij,ij->i", seg, seg)
+    start = np.concatenate([[0.0], np.cumsum(np.sqrt(seg_len2))])
+    arc = np.empty(len(centres))
+    dist = np.empty(len(centres))
+    for k, c in enumerate(centres):
+        t = np.clip(np.einsum("ij,ij->i", c - a, seg) / np.where(seg_len2 > 0, seg_len2, 1.0), 0.0, 1.0)
+        dist2 = np.sum((a + t[:, None] * seg - c) ** 2, axis=1)
+        i = int(np.argmin(dist2))
+        arc[k] = start[i] + t[i] * np.sqrt(seg_len2[i])
+        dist[k] = np.sqrt(dist2[i])
+    half = 0.5 * float(diameter)
+    return int(np.sum(dist - np.median(dist) > half) + np.sum(np.diff(arc) < half))
+
+
 # ------------------------------------------------------------------------------------------------
 # Measuring a state: every state metric in one pass
 
@@ -627,6 +674,12 @@ class Gauges:
         Where each particle's cells start in that block, after the first particle's.
     contact : Contact
         The model's contact (:class:`hydrojam.fem.contact.Contact`): the component pairs in contact.
+    particle_nodes : tuple of ndarray of int
+        Each particle's nodes, in the order of ``particle_ids`` (layer by layer from the clamp).
+    particles_per_layer : int
+        Particles side by side in a layer.
+    particle_diameter : float
+        The as-prepared particle diameter d [mm].
     """
 
     reference: np.ndarray
@@ -639,6 +692,9 @@ class Gauges:
     particle_block: str
     particle_bounds: np.ndarray
     contact: Contact
+    particle_nodes: tuple[np.ndarray, ...] = ()
+    particles_per_layer: int = 1
+    particle_diameter: float = 0.0
 
 
 def particle_volumes(gauges: Gauges, x: np.ndarray) -> np.ndarray:
@@ -700,6 +756,12 @@ def measure(gauges: Gauges, x: np.ndarray) -> dict:
         cavity = polygon_area(x, gauges.cavity_segments)
     particles = float(particle_volumes(gauges, x).sum())
     ci = curling_index(profile)
+    plane = [0, 2] if X.shape[1] == 3 else [0, 1]
+    folds = 0
+    if gauges.particle_nodes:
+        centres = np.array([x[nodes][:, plane].mean(axis=0) for nodes in gauges.particle_nodes])
+        layers = centres.reshape(-1, gauges.particles_per_layer, 2).mean(axis=1)
+        folds = column_folds(layers, x[cl][:, plane], gauges.particle_diameter)
     # the face's rotation is known modulo a turn: the centreline's, unwrapped, picks the turn
     angle = unwrapped_angle_deg(angle, float(np.degrees(profile.rotation[-1])))
     values = {
@@ -711,5 +773,6 @@ def measure(gauges: Gauges, x: np.ndarray) -> dict:
         "packing_fraction": packing_fraction(particles, cavity),
         "contacts_per_particle": contacts_per_particle(gauges.contact.contact_pairs(x), gauges.particle_ids),
         "mean_swelling_ratio": float(particles / gauges.reference_volume),
+        "column_folds": folds,
     }
     return {m.name: values[m.name] for m in STATE_METRICS}

@@ -249,7 +249,9 @@ def build_model(design: Design) -> ActuatorModel:
     # halves in a half model), measured once the gauges can measure it
     circles = n_p * np.pi * design.particle_diameter**2 / 4
     gauges = Gauges(mesh.points, mesh.group_nodes("free_end"), centreline, segments, tuple(range(n_p)), circles,
-                    solid, PARTICLES, np.cumsum([len(c) for c in particle_cells])[:-1], contact)
+                    solid, PARTICLES, np.cumsum([len(c) for c in particle_cells])[:-1], contact,
+                    tuple(np.unique(mesh.cells[cells]) for cells in particle_cells), design.particles_per_layer,
+                    design.particle_diameter)
     if design.dimension == 3:
         gauges = replace(gauges, reference_volume=float(particle_volumes(gauges, mesh.points).sum()))
     if design.stimulus.schedule is not None:  # time-resolved: the particles' kinetics set the path

@@ -12,6 +12,8 @@ which the caller reads as x-z.
 from __future__ import annotations
 
 import itertools
+import signal
+import threading
 from contextlib import contextmanager
 from typing import Iterator, Sequence
 
@@ -48,12 +50,21 @@ def _set_options() -> None:
     gmsh.option.setNumber("Mesh.RandomSeed", RANDOM_SEED)
 
 
+def _python_signal_handlers() -> dict:
+    """The signals with a Python handler (SIGINT's, a command's SIGTERM), by number: gmsh's
+    initialisation replaces some of them in the C library, out of Python's sight, and they are
+    installed again after it. Empty outside the main thread (where none can be installed)."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    return {s: h for s in signal.valid_signals() if callable(h := signal.getsignal(s))}
+
+
 @contextmanager
 def gmsh_session() -> Iterator[str]:
     """Context manager for a gmsh session holding a fresh, current model.
 
-    Initialises gmsh without signal handling and quiet, single-threaded, with a fixed random
-    seed so meshes are reproducible. Nesting is safe: an inner session adds its own model,
+    Initialises gmsh without signal handling (the Python handlers it replaces put back) and
+    quiet, single-threaded, with a fixed random seed so meshes are reproducible. Nesting is safe: an inner session adds its own model,
     removes it on exit and restores the outer model; only the outermost session finalises
     gmsh, also when an exception escapes.
 
@@ -64,10 +75,13 @@ def gmsh_session() -> Iterator[str]:
     """
     outer = bool(gmsh.isInitialized())
     if not outer:
+        handlers = _python_signal_handlers()
         try:
             gmsh.initialize(readConfigFiles=False, interruptible=False)
         except TypeError:  # older gmsh without the interruptible flag
             gmsh.initialize(readConfigFiles=False)
+        for signum, handler in handlers.items():  # gmsh's start-up resets SIGTERM's to the default
+            signal.signal(signum, handler)
     try:
         saved = {o: gmsh.option.getNumber(o) for o in _SCOPED_OPTIONS} if outer else {}
         _set_options()

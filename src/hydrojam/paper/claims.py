@@ -43,7 +43,7 @@ import numpy as np
 
 from hydrojam.actuator.metrics import metric
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of
-from hydrojam.paper.study import PaperSweep, paper_sweep
+from hydrojam.paper.study import PaperSweep, paper_sweep, paper_sweeps
 from hydrojam.study.cache import PointStatus
 
 __all__ = [
@@ -61,6 +61,7 @@ __all__ = [
     "Trend",
     "check_claim",
     "check_claims",
+    "paper_claims",
 ]
 
 #: tolerance of "rises", "falls" and "levels" for the bending angle, as a share of max |θ| in the sweep
@@ -224,6 +225,22 @@ PAPER_CLAIMS: tuple[Claim, ...] = (
           rule="|δx| and |δz| each rise from h 4 to 10 mm, then fall from 10 to 12 mm",
           reason="likely the tip's path dependence, which can be comparable to the changes between thicknesses, and "
                  "the elastomer parameters; the paper's drop from 10 to 12 mm is one point."),
+    # the paper's h read as the strip's width along y (3D only): the same statements, on that sweep
+    Claim(id="hw-angle", sweep="strain_limit_width", figure="Fig. 10",
+          paper="the bending angle increases rapidly from h = 4 to 10 mm and remains from 10 to 12 mm "
+                "(h read as the strip's width)",
+          quantities=_ANGLE, tolerance=ANGLE_TOL, trends=(Trend("rises", 4.0, 10.0), Trend("levels", 10.0, 12.0)),
+          rule="θ rises from a strip width of 4 to 10 mm, then levels from 10 to 12 mm",
+          reason="likely the strip's thickness, fixed at the base design's 8 mm: a strip that thick restrains "
+                 "the face already when narrow, and the elastomer parameters set how much."),
+    Claim(id="hw-displacement", sweep="strain_limit_width", figure="Fig. 11",
+          paper="the horizontal and vertical displacements increase from h = 4 to 10 mm and decrease from 10 to "
+                "12 mm (h read as the strip's width)",
+          quantities=_TIP, magnitude=True, tolerance=DISPLACEMENT_TOL,
+          trends=(Trend("rises", 4.0, 10.0), Trend("falls", 10.0, 12.0)),
+          rule="|δx| and |δz| each rise from a strip width of 4 to 10 mm, then fall from 10 to 12 mm",
+          reason="likely the tip's path dependence, which can be comparable to the changes between widths; the "
+                 "paper's drop from 10 to 12 mm is one point."),
 )
 
 #: claim id -> the default "why" of a disagreement (hypotheses, not findings)
@@ -271,20 +288,29 @@ class ClaimResult:
     verdict: Verdict
 
 
-def check_claims(table) -> list[ClaimResult]:
-    """Every claim of PAPER_CLAIMS checked on a table.
+def paper_claims(dimension: int = 2) -> tuple[Claim, ...]:
+    """The claims of PAPER_CLAIMS whose sweep runs in a study of ``dimension`` (the strip-width
+    reading of h: 3D only), in order."""
+    names = {s.name for s in paper_sweeps(dimension)}
+    return tuple(c for c in PAPER_CLAIMS if c.sweep in names)
+
+
+def check_claims(table, dimension: int = 2) -> list[ClaimResult]:
+    """Every claim of a study of ``dimension`` (:func:`paper_claims`) checked on a table.
 
     Parameters
     ----------
     table : SweepTable or list of dict
         The study's results (or its rows).
+    dimension : {2, 3}, optional
+        The study's dimension.
 
     Returns
     -------
     list of ClaimResult
         In the order of PAPER_CLAIMS.
     """
-    return [check_claim(claim, table) for claim in PAPER_CLAIMS]
+    return [check_claim(claim, table) for claim in paper_claims(dimension)]
 
 
 def check_claim(claim: Claim, table) -> ClaimResult:

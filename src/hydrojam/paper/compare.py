@@ -19,7 +19,7 @@ from pathlib import Path
 from hydrojam._io import read_toml
 from hydrojam.actuator.design import Design
 from hydrojam.paper._rows import cell_pm, fmt_param, number, point_status, rows_of, without_result
-from hydrojam.paper.study import PAPER_SWEEPS, reproduce_command, study_name
+from hydrojam.paper.study import paper_sweeps, reproduce_command, study_name
 from hydrojam.study.cache import PointStatus
 from hydrojam.study.table import SweepTable
 
@@ -150,7 +150,7 @@ def _length(base: Design, point: tuple) -> float:
 def _label(sweep, point: tuple) -> str:
     values = dict(zip(_BASE, point))
     if all(values[f] == v for f, v in _BASE.items()):
-        return "base: " + ", ".join(f"{sw.symbol} {fmt_param(values[sw.field], sw.unit)}" for sw in PAPER_SWEEPS)
+        return "base: " + ", ".join(f"{sw.symbol} {fmt_param(values[sw.field], sw.unit)}" for sw in paper_sweeps(2))
     return f"{sweep.symbol} = {fmt_param(values[sweep.field], sweep.unit)}"
 
 
@@ -266,13 +266,13 @@ def compare_points(table_3d, table_2d, base: Design) -> list[PointComparison]:
     rows = []
     for table in (table_2d, table_3d):
         by_point = {}
-        for sw in PAPER_SWEEPS:
+        for sw in paper_sweeps(2):
             for r in rows_of(table, sw.name):
                 by_point.setdefault(_point(r, base), r)
         rows.append(by_point)
     rows2, rows3 = rows
     seen, out, stretch_at = set(), [], {}
-    for sw in PAPER_SWEEPS:
+    for sw in paper_sweeps(2):
         at = list(_BASE).index(sw.field)
         own = {_point(r, base) for table in (table_3d, table_2d) for r in rows_of(table, sw.name)}
         for point in sorted(own, key=lambda p: (p[at] is None, p[at] or 0.0, [(v is None, v or 0.0) for v in p])):

@@ -19,13 +19,13 @@ from hydrojam.paper.claims import (
     CURLING_MARGIN,
     DISPLACEMENT_TOL,
     DISAGREEMENT_REASONS_3D,
-    PAPER_CLAIMS,
+    paper_claims,
     Verdict,
     check_claims,
 )
 from hydrojam.paper.compare import comparison_lines
-from hydrojam.paper.figures import figure_names
-from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, paper_base, reproduce_command
+from hydrojam.paper.figures import figure_names, state_figure_name
+from hydrojam.paper.study import PaperSweep, paper_base, paper_sweeps, reproduce_command
 from hydrojam.study.cache import ROW_STATUSES, PointStatus
 
 __all__ = ["MODEL_DIFFERENCES", "MODEL_DIFFERENCES_3D", "model_differences", "write_report"]
@@ -84,9 +84,9 @@ def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
     replicas, mean ± standard deviation, the replicas used of those run, and summed wall times."""
     head = f"{sw.symbol} [{sw.unit}]" if sw.unit != "layers" else sw.symbol
     if _replicated(rows) > 1:
-        lines = [f"| {head} | θ [deg] | δx [mm] | δz [mm] | curling index | replicas used | Newton iterations "
-                 "(mean) | wall time, summed [s] | status |",
-                 "|---:|---:|---:|---:|---:|---:|---:|---:|:---|"]
+        lines = [f"| {head} | θ [deg] | δx [mm] | δz [mm] | curling index | replicas used | states | Newton "
+                 "iterations (mean) | wall time, summed [s] | status |",
+                 "|---:|---:|---:|---:|---:|---:|:---|---:|---:|:---|"]
         for r in sorted_by(rows, sw.field):
             status = point_status(r)
             note = status
@@ -95,7 +95,7 @@ def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
             used = f"{_cell(r.get('replicas_used'), '{:.0f}')}/{_cell(r.get('replicas'), '{:.0f}')}"
             lines.append(
                 f"| {fmt_param(number(r.get(sw.field)))} | {_pm(r, 'bending_angle_deg')} | {_pm(r, 'tip_dx_mm')} | "
-                f"{_pm(r, 'tip_dz_mm')} | {_pm(r, 'curling_index', '{:.2f}')} | {used} | "
+                f"{_pm(r, 'tip_dz_mm')} | {_pm(r, 'curling_index', '{:.2f}')} | {used} | {_md(r.get('states') or '—')} | "
                 f"{_cell(r.get('newton_iterations'), '{:.0f}')} | {_cell(r.get('wall_time_s'), '{:.0f}')} | "
                 f"{_md(note)} |")
         return lines
@@ -117,6 +117,43 @@ def _points_table(rows: list[dict], sw: PaperSweep) -> list[str]:
             f"{'—' if conv is None else ('yes' if conv else 'no')} | {_cell(r.get('newton_iterations'), '{:.0f}')} | "
             f"{_cell(r.get('wall_time_s'), '{:.0f}')} | {_md(note)} |")
     return lines
+
+
+def _states_lines(table, states: dict, sweeps, results) -> list[str]:
+    """The report's section on states: each point's runs by state with θ per state, and every
+    claim's verdict on each state's runs alone (:func:`hydrojam.study.table.state_tables`)."""
+    L = ["## States", "",
+         "A point's replicas can reach distinct equilibria: the column stays one **arc**, or it **folds** (a "
+         "layer of particles beside the one before it instead of beyond it; the metric `column_folds`, "
+         "docs/replicas.md). A mean over both describes neither, so each state is given apart: its runs and "
+         "θ (mean ± standard deviation over its runs), and below, every statement checked on each state's "
+         "runs alone (a point with no run in that state leaves its parts undetermined).", ""]
+    names = list(states)
+    L += ["| sweep | point | " + " | ".join(f"{n}: runs, θ [deg]" for n in names) + " |",
+          "|---|---:|" + "---:|" * len(names)]
+    for sw in sweeps:
+        by_state = {n: {r.get("point"): r for r in rows_of(t, sw.name)} for n, t in states.items()}
+        for r in sorted_by(rows_of(table, sw.name), sw.field):
+            cells = []
+            for n in names:
+                q = by_state[n].get(r.get("point"))
+                ok = q is not None and point_status(q) in (PointStatus.OK, PointStatus.NOT_CONVERGED)
+                runs = _cell(q.get("replicas_used"), "{:.0f}") if ok and q.get("replicas_used") is not None else ("1" if ok else "0")
+                cells.append(f"{runs}, {_pm(q, 'bending_angle_deg')}" if ok else "0")
+            L.append(f"| {sw.name} | {fmt_param(number(r.get(sw.field)), sw.unit)} | " + " | ".join(cells) + " |")
+    L += ["", "| # | all runs | " + " | ".join(f"{n} runs only" for n in names) + " |",
+          "|---|---|" + "---|" * len(names)]
+    per_state = {n: {c.claim.id: c for c in check_claims(t, _dim_of(sweeps))} for n, t in states.items()}
+    for c in results:
+        L.append(f"| {c.claim.id} | **{c.verdict}** | "
+                 + " | ".join(f"**{per_state[n][c.claim.id].verdict}**: {_md(per_state[n][c.claim.id].summary)}"
+                              for n in names) + " |")
+    return L + [""]
+
+
+def _dim_of(sweeps) -> int:
+    """The study dimension whose sweeps these are (3 with a 3D-only sweep)."""
+    return 3 if any(2 not in sw.dimensions for sw in sweeps) else 2
 
 
 def _tolerance_text() -> list[str]:
@@ -154,7 +191,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                  explanations: dict[str, str] | None = None, *, workers: int | None = None,
                  scheduler: str | None = None, base: Design | None = None, compare_2d=None,
                  compare_source: str | os.PathLike | None = None, computed: int | None = None,
-                 ran: bool = True) -> Path:
+                 ran: bool = True, states: dict | None = None, overrides=()) -> Path:
     """Write ``OUT/report.md`` (atomically) and return its path.
 
     What was run (quick or full, mesh size, points, workers, wall time, hydrojam version); per
@@ -193,6 +230,12 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
         False: the report of a study in progress, written from its finished points without running
         anything (``reproduce(report_only=True)``): its unfinished points are listed as such and
         the report says that it is an interim one.
+    states : dict of str to SweepTable, optional
+        State -> the table of that state's runs alone (:func:`hydrojam.study.table.state_tables`);
+        with two or more, the section "States" gives each point's runs by state and every claim's
+        verdict per state.
+    overrides : sequence of str, optional
+        The model choices the study changed for every point (``--set``), named in the report.
 
     Returns
     -------
@@ -202,9 +245,10 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     out = Path(out)
     base = base if base is not None else paper_base(quick)
     dim = base.dimension
-    results = check_claims(table)
+    results = check_claims(table, dim)
+    sweeps = paper_sweeps(dim)
     explanations = {**(DISAGREEMENT_REASONS_3D if dim == 3 else {}), **(explanations or {})}
-    all_rows = [r for sw in PAPER_SWEEPS for r in rows_of(table, sw.name)]
+    all_rows = [r for sw in sweeps for r in rows_of(table, sw.name)]
     by_key = {}
     for r in all_rows:
         by_key.setdefault(r.get("key") or id(r), r)
@@ -214,7 +258,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     verdicts = {v: sum(1 for c in results if c.verdict == v) for v in Verdict}
     n_replicas = _replicated(all_rows)
 
-    command = reproduce_command(quick, dim, n_replicas)
+    command = reproduce_command(quick, dim, n_replicas, overrides)
     if dim == 3:
         model = (f"3D (particles are spheres; {'the half model y ≥ 0, y = 0 a symmetry plane' if base.mesh.symmetry else 'the full model'}), "
                  f"mesh size {base.mesh.size:g} mm (quadratic tetrahedra)")
@@ -236,6 +280,9 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
           f"T = {base.stimulus.temperature:g} K, d = {base.particle_diameter:g} mm, "
           f"{'frictionless' if base.friction == 0 else f'friction {base.friction:g}'}), {model}.",
           ]
+    if overrides:
+        L.append(f"- Model choices changed from the defaults for every point: {', '.join(f'`{o}`' for o in overrides)} "
+                 "(a study of its own, beside the default's: docs/reproduce.md, \"Sensitivity\").")
     if n_replicas > 1:
         L.append(f"- Replicas: {n_replicas} per point (`--replicas {n_replicas}`), each with its particle centres "
                  f"jittered by up to {base.replicas.jitter:g} × the clearance from seed {base.replicas.seed} "
@@ -245,13 +292,13 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     rerun = f"`{command} -o {out}`"
     runs = (f"{n_points} points" if n_replicas <= 1
             else f"{n_points * n_replicas} runs ({n_points} points x {n_replicas} replicas)")
-    for sw in PAPER_SWEEPS:
+    for sw in sweeps:
         vals = sorted({v for v in (number(r.get(sw.field)) for r in rows_of(table, sw.name)) if v is not None})
         not_run = "" if vals else f" **Not run**: {rerun} adds it, reusing the finished points."
         vals = vals or (sw.quick_values if quick else sw.values)
         L.append(f"- {sw.label}: {', '.join(f'{v:g}' for v in vals)} {'' if sw.unit == 'layers' else sw.unit}"
                  .rstrip() + f" ({sw.figures}).{not_run}")
-    L += [f"- {n_points} distinct points (the base point is shared by the three sweeps): {counts[PointStatus.OK]} converged, "
+    L += [f"- {n_points} distinct points (the base point is shared by the temperature, layer and thickness sweeps): {counts[PointStatus.OK]} converged, "
           f"{counts[PointStatus.NOT_CONVERGED]} not converged, {counts[PointStatus.FAILED]} failed"
           + (f", **{counts[PointStatus.UNFINISHED]} not finished**." if counts[PointStatus.UNFINISHED] else "."),
           (f"- Workers: {_workers_text(workers, scheduler)}; "
@@ -273,7 +320,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                  "undetermined until they finish. ")
               + f"{rerun} runs {'it' if one else 'them'} on from {'its checkpoint' if one else 'their checkpoints'} "
               "and rewrites this report.", ""]
-    for sw in PAPER_SWEEPS:
+    for sw in sweeps:
         rows = rows_of(table, sw.name)
         L += [f"## {sw.label[0].upper() + sw.label[1:]} (paper {sw.figures})", ""]
         for name, what in zip(figure_names(sw), ("Deformed shapes", "Trends")):
@@ -281,6 +328,10 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                 L += [f"![{what}: {sw.label}]({name})", ""]
             else:
                 L += [f"*{what} figure not written ({name}).*", ""]
+        for state in (states or {}) if len(states or {}) > 1 else ():
+            name = state_figure_name(sw, state)
+            if (out / name).is_file():
+                L += [f"![Deformed shapes, one run in the state {state} a point: {sw.label}]({name})", ""]
         L += (_points_table(rows, sw) if rows else [f"*No points of this sweep in the table: not run ({rerun} adds it).*"]) + [""]
     L += ["## The paper's statements and hydrojam", ""]
     L += ["| # | paper (Fig.) | hydrojam computed | verdict | why (for disagree) |", "|---|---|---|---|---|"]
@@ -288,9 +339,11 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
         reason = explanations.get(c.claim.id, c.claim.reason) if c.verdict == Verdict.DISAGREE else ""
         L.append(f"| {c.claim.id} | {_md(c.claim.paper)} ({c.claim.figure}) | {_md(c.summary)} | "
                  f"**{c.verdict}** | {_md(reason)} |")
-    L += ["", "The reasons given for a disagreement are hypotheses from the model differences below, not findings.",
-          "", "### How each statement is checked", ""]
-    L += [f"- **{c.id}**: {c.rule}." for c in PAPER_CLAIMS]
+    L += ["", "The reasons given for a disagreement are hypotheses from the model differences below, not findings.", ""]
+    if states and len(states) > 1:
+        L += _states_lines(table, states, sweeps, results)
+    L += ["### How each statement is checked", ""]
+    L += [f"- **{c.id}**: {c.rule}." for c in paper_claims(dim)]
     L += [""] + _tolerance_text() + [""]
     if dim == 3:
         L += comparison_lines(table, compare_2d, base, quick=quick, out=out, source=compare_source)

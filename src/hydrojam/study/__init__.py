@@ -10,7 +10,8 @@ from hydrojam._lazy import lazy_api
 _PUBLIC = {
     "hydrojam.study.spec": ['Study', 'StudyError', 'SweepSpec', 'Point', 'load_study', 'study_from_dict', 'write_study', 'design_key'],
     "hydrojam.study.sweep": ['run_sweep', 'PointOutcome', 'SchedulerError'],
-    "hydrojam.study.table": ['SweepTable'],
+    "hydrojam.study.table": ['SweepTable', 'state_tables'],
+    "hydrojam.study.states": ['STATES', 'state_of'],
     "hydrojam.study.cache": ['PointStatus'],
     "hydrojam.study.replicas": ['run_replicas', 'replica_study', 'ReplicaSummary', 'summarise'],
     "hydrojam.study.spread": ['Spread', 'spread'],

@@ -11,7 +11,10 @@ Each distinct design has its folder ``OUT/points/<key>/`` (key: :func:`hydrojam.
     error.txt           the traceback of a failed point
 
 ``point.json``: ``{"key", "status": "ok" | "not_converged" | "failed", "error", "metrics",
-"wall_time_s", "point_time_s", "hydrojam_version"}`` (:func:`point_record`); ``wall_time_s`` is
+"wall_time_s", "point_time_s", "hydrojam_version", "files"}`` (:func:`point_record`); ``files``
+maps each result file of a finished point to its SHA-256 (:func:`result_checksums`), so that a
+rerun finds a damaged or missing one (:func:`damaged_files`) and computes the point again
+(records written without it, by earlier versions, are loaded as they are); ``wall_time_s`` is
 the wall time the point function reports in its metrics (hydrojam's: the load path, without
 meshing and writing), else the point's whole time, ``point_time_s``, measured on the worker. A
 rerun into the same ``OUT`` loads the points whose status is ok or not_converged
@@ -25,6 +28,7 @@ from __future__ import annotations
 
 import csv
 import enum
+import hashlib
 import io
 import json
 import os
@@ -40,10 +44,12 @@ __all__ = [
     "PointStatus",
     "ROW_STATUSES",
     "RunningPoint",
+    "damaged_files",
     "finished_records",
     "point_progress",
     "point_record",
     "read_record",
+    "result_checksums",
     "running_point",
     "single_line",
     "unfinished_text",
@@ -105,7 +111,7 @@ def single_line(text: str) -> str:
 
 
 def point_record(key: str, status: PointStatus, error: str | None, metrics: dict | None, wall: float | None,
-                 point_time: float | None) -> dict:
+                 point_time: float | None, files: dict[str, str] | None = None) -> dict:
     """A point's record, as point.json holds it (non-finite values None, this hydrojam's version).
 
     Parameters
@@ -122,6 +128,9 @@ def point_record(key: str, status: PointStatus, error: str | None, metrics: dict
         Wall time [s]: the metrics' ``wall_time_s``, else the point's whole time.
     point_time : float or None
         The point's whole time on the worker [s].
+    files : dict, optional
+        A finished point's result files and their checksums (:func:`result_checksums`); left out
+        of the record where None.
 
     Returns
     -------
@@ -129,8 +138,74 @@ def point_record(key: str, status: PointStatus, error: str | None, metrics: dict
     """
     from hydrojam._version import __version__
 
-    return finite_or_none({"key": key, "status": status, "error": error, "metrics": metrics, "wall_time_s": wall,
-                           "point_time_s": point_time, "hydrojam_version": __version__})
+    record = finite_or_none({"key": key, "status": status, "error": error, "metrics": metrics, "wall_time_s": wall,
+                             "point_time_s": point_time, "hydrojam_version": __version__})
+    if files is not None:
+        record["files"] = dict(files)
+    return record
+
+
+#: files of a point's folder that are not its results: its record, a failure's traceback, a run's
+#: checkpoint (removed when the run ends)
+_NOT_RESULTS = frozenset({"point.json", "error.txt", CHECKPOINT})
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return "sha256:" + digest.hexdigest()
+
+
+def result_checksums(point_dir: str | os.PathLike) -> dict[str, str]:
+    """The result files of a finished point in ``point_dir`` (every regular file but its record,
+    error.txt, a checkpoint and hidden files), each with its SHA-256 ("sha256:<hex>"), by name.
+
+    Parameters
+    ----------
+    point_dir : str or os.PathLike
+        The point's folder.
+
+    Returns
+    -------
+    dict
+    """
+    folder = Path(point_dir)
+    return {f.name: _sha256(f) for f in sorted(folder.iterdir())
+            if f.is_file() and not f.is_symlink() and f.name not in _NOT_RESULTS and not f.name.startswith(".")}
+
+
+def damaged_files(point_dir: str | os.PathLike, record: dict) -> list[str]:
+    """The result files that ``record`` (a point.json) lists and that are missing from
+    ``point_dir``, cannot be read or no longer match their checksum: a damaged point, to compute
+    again. Empty for a record without checksums (written by an earlier version: nothing to
+    check against).
+
+    Parameters
+    ----------
+    point_dir : str or os.PathLike
+        The point's folder.
+    record : dict
+        Its record.
+
+    Returns
+    -------
+    list of str
+        The damaged files' names.
+    """
+    files = record.get("files")
+    if not isinstance(files, dict):
+        return []
+    damaged = []
+    for name, checksum in files.items():
+        try:
+            ok = _sha256(Path(point_dir) / name) == checksum
+        except OSError:
+            ok = False
+        if not ok:
+            damaged.append(name)
+    return damaged
 
 
 def write_record(point_dir: Path, record: dict) -> None:
@@ -143,13 +218,21 @@ def read_record(point_dir: Path) -> dict | None:
     return read_json_dict(point_dir / "point.json")
 
 
-def finished_records(out: Path, groups: dict[str, list[Point]], failed: bool = False) -> dict[str, dict]:
+def finished_records(out: Path, groups: dict[str, list[Point]], failed: bool = False,
+                     damaged: dict[str, list[str]] | None = None) -> dict[str, dict]:
     """The outcome records (point.json) of the points of ``groups`` finished in ``out`` (ok or
-    not converged; with ``failed``, failed ones too), by key."""
+    not converged; with ``failed``, failed ones too), by key. With a dict ``damaged``, each
+    finished point's result files are checked against their checksums (:func:`damaged_files`):
+    a damaged point is left out, to be computed again, and its damaged files put in
+    ``damaged[key]``."""
     records = {}
     for key in groups:
         rec = read_record(out / "points" / key)
         if rec is not None and (rec.get("status") in FINISHED or (failed and rec.get("status") == PointStatus.FAILED)):
+            bad = damaged_files(out / "points" / key, rec) if damaged is not None else []
+            if bad:
+                damaged[key] = bad
+                continue
             records[key] = rec
     return records
 

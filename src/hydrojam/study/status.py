@@ -14,7 +14,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from hydrojam._io import FOLDER_LOCK, FolderKind, finite_number, read_json_dict
+from hydrojam._io import FOLDER_LOCK, FolderKind, LockState, finite_number, lock_state, read_json_dict
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseProgress
 from hydrojam.study.cache import FINISHED, PointStatus, running_point
 from hydrojam.study.spec import Point, StudyError, load_study
@@ -88,9 +88,12 @@ class FolderStatus:
         In the study's order.
     lock : dict, optional
         The folder's lock file as written by the run that holds it (pid, host, started;
-        :data:`hydrojam._io.FOLDER_LOCK`), None when no run holds it.
+        :data:`hydrojam._io.FOLDER_LOCK`; empty where it cannot be read), None when there is none.
     replicas : int, optional
         The study's replicas per point (1 for a run).
+    lock_state : LockState, optional
+        Whether the lock's process lives (:func:`hydrojam._io.lock_state`): ``dead`` for a run
+        that was stopped (killed) and left its lock; None when there is no lock.
     """
 
     kind: FolderKind
@@ -98,6 +101,7 @@ class FolderStatus:
     runs: tuple[RunStatus, ...]
     lock: dict | None = None
     replicas: int = 1
+    lock_state: LockState | None = None
 
     def counts(self) -> dict[str, int]:
         """How many runs are in each state (:data:`STATES`), the empty ones left out."""
@@ -216,6 +220,13 @@ def folder_status(out: str | os.PathLike, measure: bool = False) -> FolderStatus
         if r.state == PointStatus.UNFINISHED and r.release is not None else r for r in st.runs))
 
 
+def _lock(out: Path) -> dict:
+    """The folder ``out``'s lock as :class:`FolderStatus` fields: its lock file's content and
+    whether its process lives (:func:`hydrojam._io.lock_state`); none where it has no lock."""
+    state = lock_state(out / FOLDER_LOCK)
+    return {} if state is None else {"lock": state[1], "lock_state": state[0]}
+
+
 def _folder_status(out: Path) -> FolderStatus:
     if (out / "study.toml").is_file():
         try:
@@ -232,9 +243,9 @@ def _folder_status(out: Path) -> FolderStatus:
         # a rerun with fewer sweeps (`reproduce --sweep ...`) rewrites study.toml with those only
         others = sorted(f for f in (out / "points").glob("*") if f.is_dir() and f.name not in groups)
         runs += [_status(f, f.name, (), read_json_dict(f / "point.json")) for f in others]
-        return FolderStatus(FolderKind.STUDY, study.name, tuple(runs), read_json_dict(out / FOLDER_LOCK), study.replicas)
+        return FolderStatus(FolderKind.STUDY, study.name, tuple(runs), replicas=study.replicas, **_lock(out))
     if (out / "design.toml").is_file() and any((out / n).is_file()
                                                for n in ("history.csv", CHECKPOINT, "metrics.json")):
-        return FolderStatus(FolderKind.RUN, out.name, (_status(out, "", (), _run_outcome(out)),), read_json_dict(out / FOLDER_LOCK))
+        return FolderStatus(FolderKind.RUN, out.name, (_status(out, "", (), _run_outcome(out)),), **_lock(out))
     raise StatusError(f"{out}: not an output folder of hydrojam (no study.toml, and no design.toml with a run's "
                       "history.csv, checkpoint.npz or metrics.json)")

@@ -31,12 +31,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from hydrojam._interrupt import signals_blocked
 from hydrojam._io import (FOLDER_LOCK, FolderKind, FolderKindError, LockHeld, check_folder_kind, finite_or_none,
-                          hold_lock, make_folder, read_toml, write_text_atomic)
+                          hold_lock, make_folder, read_toml, remove_stale_temporaries, write_text_atomic)
 from hydrojam.actuator.checkpoint import CHECKPOINT
 from hydrojam.actuator.design import Design, DesignError
-from hydrojam.study.cache import (PointStatus, RunningPoint, finished_records, point_record, running_point,
-                                  single_line, unfinished_text, write_record)
+from hydrojam.study.cache import (PointStatus, RunningPoint, finished_records, point_record, result_checksums,
+                                  running_point, single_line, unfinished_text, write_record)
 from hydrojam.study.spec import Point, Study, StudyError, write_study
 from hydrojam.study.table import SweepTable, write_table
 
@@ -83,8 +84,9 @@ def run_point(design: Design, point_dir: Path) -> dict:
 
 def _execute(point_fn: Callable[[Design, Path], dict], design: Design, point_dir: str, key: str) -> dict:
     """Worker side: clear the point's folder (but a run's checkpoint, which the run resumes), run
-    ``point_fn``, write point.json last; never raises for the point's own failure (recorded as
-    status "failed" with error.txt)."""
+    ``point_fn``, write point.json last, with the checksums of the result files of a finished
+    point; never raises for the point's own failure (recorded as status "failed" with
+    error.txt)."""
     folder = Path(point_dir)
     if (folder / CHECKPOINT).is_file():
         for name in ("point.json", "error.txt", "final.vtu"):
@@ -109,7 +111,8 @@ def _execute(point_fn: Callable[[Design, Path], dict], design: Design, point_dir
         error = None if converged else single_line(metrics.get("message") or "the solver stopped early")
         wall = metrics.get("wall_time_s")
         wall = wall if isinstance(wall, (int, float)) and not isinstance(wall, bool) else elapsed
-        record = point_record(key, PointStatus.OK if converged else PointStatus.NOT_CONVERGED, error, metrics, wall, elapsed)
+        record = point_record(key, PointStatus.OK if converged else PointStatus.NOT_CONVERGED, error, metrics, wall, elapsed,
+                              result_checksums(folder))
     write_record(folder, record)
     return record
 
@@ -128,16 +131,21 @@ class PointOutcome:
         The study points sharing this design.
     point_dir : Path
         The point's folder.
+    damaged : tuple of str
+        For a point finished earlier and computed again: its result files found damaged or
+        missing (:func:`~hydrojam.study.cache.damaged_files`); else empty.
     """
 
     record: dict
     cached: bool
     points: tuple[Point, ...]
     point_dir: Path
+    damaged: tuple[str, ...] = ()
 
     @classmethod
-    def from_record(cls, record: dict, points: list[Point], point_dir: Path, cached: bool) -> PointOutcome:
-        return cls(record, cached, tuple(points), point_dir)
+    def from_record(cls, record: dict, points: list[Point], point_dir: Path, cached: bool,
+                    damaged=()) -> PointOutcome:
+        return cls(record, cached, tuple(points), point_dir, tuple(damaged))
 
     @property
     def key(self) -> str:
@@ -202,15 +210,19 @@ def _local_cluster(n_workers: int):
 
     # one single-threaded process per core: hydrojam's PARDISO and IPC run one thread each
     # ":0": its HTTP server (which starts even without a dashboard) on a free port, not 8787
-    # allowed-failures 0: a point that kills its worker (memory, a crash) is recorded as failed
-    # at once, not retried 3 more times on fresh workers (a rerun of the sweep retries it)
+    # allowed-failures 1: a point whose worker dies (memory, a crash, a kill) runs once more on
+    # the fresh worker the nanny starts, then is recorded as failed (a rerun of the sweep retries
+    # it); the sweep submits no more points than there are workers (_compute), so that a worker
+    # holds only the point it runs and its death counts against that point alone
     # MALLOC_TRIM_THRESHOLD_ unset: dask's 64 KiB makes glibc return every large numpy temporary
     # to the kernel, and the page faults of taking it back cost a simulation 40% more wall time
     # (docs/sweeps.md); the single-thread settings for BLAS and OpenMP stay
     environ = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ").items()
                if k != "MALLOC_TRIM_THRESHOLD_"}
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0,
-                          "distributed.nanny.pre-spawn-environ": environ}):
+    # SIGINT blocked while the cluster starts: its threads, and the worker processes they start
+    # (restarted ones too), never get the terminal's Ctrl-C; this process stops them
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1,
+                          "distributed.nanny.pre-spawn-environ": environ}), signals_blocked():
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                                silence_logs=logging.ERROR, memory_limit=0)
     try:
@@ -234,8 +246,12 @@ def run_sweep(
 ) -> SweepTable:
     """Run every distinct design of ``study`` into ``OUT/points/<key>/`` and write the table.
 
-    Finished points (point.json ok or not_converged) are loaded, not run; the others run on a
-    dask cluster, the most expensive points first. On KeyboardInterrupt the futures are
+    Finished points (point.json ok or not_converged) are loaded, not run, unless a result file
+    no longer matches the checksum its point.json records (damaged: run again, its outcome's
+    ``damaged`` naming the files); the others run on a dask cluster, the most expensive points
+    first. A point whose worker dies runs once more on a fresh worker before it counts as failed
+    (a local cluster's; a scheduler's own ``allowed-failures`` applies there). The temporary
+    files of writes a kill interrupted are removed (:func:`hydrojam._io.remove_stale_temporaries`). On KeyboardInterrupt the futures are
     cancelled, the cluster closed, and the interrupt re-raised: finished points are on disk. One
     run at a time writes ``OUT``: it holds the lock file ``OUT/.hydrojam.lock`` while it runs
     (:data:`hydrojam._io.FOLDER_LOCK`; a lock left by a killed process of this host is taken over).
@@ -329,7 +345,10 @@ def run_sweep(
         except LockHeld as err:
             raise StudyError(str(err)) from None
         _check_kind(out)  # again, under the lock
-        records = finished_records(out, groups)  # again: a run that held the lock may have finished some
+        remove_stale_temporaries(out)  # what writes that a kill interrupted left
+        damaged: dict[str, list[str]] = {}
+        # again: a run that held the lock may have finished some; a damaged point runs again
+        records = finished_records(out, groups, damaged=damaged)
         pending = [key for key in groups if key not in records]
         write_study(out / "study.toml", study)
         total, done = len(groups), 0
@@ -340,11 +359,13 @@ def run_sweep(
                     outcome = PointOutcome.from_record(records[key], groups[key], out / "points" / key, True)
                     on_point(outcome, done, total)
         if pending:
+            in_flight = None  # a scheduler's workers: dask's queue
             if client is None:
-                cluster, client = _local_cluster(min(workers or os.cpu_count() or 1, len(pending)))
+                in_flight = min(workers or os.cpu_count() or 1, len(pending))
+                cluster, client = _local_cluster(in_flight)
             interval = PROGRESS_INTERVAL_S if progress_interval_s is None else progress_interval_s
             done = _compute(client, groups, pending, out, point_fn, records, on_point, done, total, on_running,
-                            interval)
+                            interval, damaged, in_flight)
         return write_table(study, out, records)
     finally:
         if client is not None:
@@ -419,7 +440,10 @@ def _watch_running(groups, order, out, records, on_running, interval_s, since) -
 
 
 def _compute(client, groups, pending, out, point_fn, records, on_point, done, total, on_running=None,
-             progress_interval_s=PROGRESS_INTERVAL_S) -> int:
+             progress_interval_s=PROGRESS_INTERVAL_S, damaged=None, in_flight=None) -> int:
+    """Run the ``pending`` points on ``client``, the most expensive first, recording each outcome
+    as it comes; at most ``in_flight`` submitted at once (None: all), so that a local worker
+    holds only the point it runs and its death counts against that point alone."""
     from distributed import as_completed
 
     order = sorted(pending, key=lambda k: -estimated_cost(groups[k][0].design))  # stable: study order on ties
@@ -428,17 +452,27 @@ def _compute(client, groups, pending, out, point_fn, records, on_point, done, to
     watcher = None if on_running is None else _watch_running(groups, order, out, records, on_running,
                                                              progress_interval_s, time.time() - 1.0)
     futures = {}
-    for rank, key in enumerate(order):
+    waiting = list(enumerate(order))
+
+    def submit():
+        rank, key = waiting.pop(0)
         fut = client.submit(_execute, point_fn, groups[key][0].design, str(out / "points" / key), key,
                             key=f"hydrojam-point-{key}-{token}", priority=len(order) - rank, pure=False)
         futures[fut] = key
+        return fut
+
     try:
-        for fut in as_completed(list(futures), loop=client.loop):
+        completed = as_completed([submit() for _ in range(min(in_flight or len(waiting), len(waiting)))],
+                                 loop=client.loop)
+        for fut in completed:
+            if waiting:
+                completed.add(submit())
             key = futures[fut]
             folder = out / "points" / key
             if fut.status == "finished":
                 rec = fut.result()
                 if not (folder / "point.json").exists():  # a worker without our file system
+                    rec = {k: v for k, v in rec.items() if k != "files"}  # its files are not here to check
                     write_record(folder, rec)
             else:  # the worker died or the task was lost: record it as a failed point
                 exc = fut.exception() if fut.status == "error" else None
@@ -449,7 +483,8 @@ def _compute(client, groups, pending, out, point_fn, records, on_point, done, to
             records[key] = json.loads(json.dumps(rec, allow_nan=False))  # as it reads back from point.json
             done += 1
             if on_point is not None:
-                on_point(PointOutcome.from_record(records[key], groups[key], folder, False), done, total)
+                on_point(PointOutcome.from_record(records[key], groups[key], folder, False,
+                                                  (damaged or {}).get(key, ())), done, total)
     except BaseException:
         client.cancel(list(futures))
         raise

@@ -28,6 +28,7 @@ from hydrojam.actuator.metrics import STATE_METRICS, metric
 from hydrojam.study.cache import FINISHED, PointStatus, read_record
 from hydrojam.study.spec import Point, Study
 from hydrojam.study.spread import spread
+from hydrojam.study.states import state_counts, state_of, states_text
 
 #: the run fields the table carries after the state metrics, in column order
 TABLE_RUN_FIELDS = ("converged", "stabilisation_released", "s_reached", "load_steps", "newton_iterations")
@@ -36,7 +37,8 @@ TABLE_RUN_FIELDS = ("converged", "stabilisation_released", "s_reached", "load_st
 #: (:mod:`hydrojam.actuator.metrics`; the values from metrics.json / SimulationResult.metrics)
 METRIC_COLUMNS: dict[str, type] = {m.name: m.type for m in (*STATE_METRICS, *map(metric, TABLE_RUN_FIELDS))}
 _HEAD: dict[str, type] = {"sweep": str, "point": int, "key": str}
-_TAIL: dict[str, type] = {"wall_time_s": metric("wall_time_s").type, "status": str, "error": str, "point_dir": str}
+_TAIL: dict[str, type] = {"states": str, "wall_time_s": metric("wall_time_s").type, "status": str, "error": str,
+                          "point_dir": str}
 #: the metrics whose spread over a point's replicas the table carries (``<name>_std``, ``_min``, ``_max``)
 SPREAD_METRICS: tuple[str, ...] = tuple(m.name for m in STATE_METRICS if m.type is float)
 _SPREAD: dict[str, type] = {f"{name}_{stat}": float for name in SPREAD_METRICS for stat in ("std", "min", "max")}
@@ -52,6 +54,7 @@ __all__ = [
     "build_table",
     "replica_table",
     "run_states",
+    "state_tables",
     "write_table",
 ]
 
@@ -183,7 +186,7 @@ def _walk(design: Design, path: str) -> Any:
     return value
 
 
-def build_table(study: Study, records: dict[str, dict]) -> SweepTable:
+def build_table(study: Study, records: dict[str, dict], state: str | None = None) -> SweepTable:
     """The table of a study from its runs' outcome records (point.json), keyed by design key:
     one row per (sweep, point).
 
@@ -196,7 +199,11 @@ def build_table(study: Study, records: dict[str, dict]) -> SweepTable:
     spread columns and ``replicas``, ``replicas_used``, ``replica_dirs`` are there when any point
     of the study has more than one replica. A point with a replica not finished (status
     ``unfinished``: a table written without running, :func:`~hydrojam.study.sweep.run_sweep` ``run=False``) is
-    unfinished, its metrics those of the replicas finished so far.
+    unfinished, its metrics those of the replicas finished so far. ``states`` names the state of
+    every finished run (:mod:`hydrojam.study.states`): one state, or each with its runs.
+
+    With ``state`` ("arc", "folded"), the table of that state alone: each point's statistics over
+    its replicas in that state, and a point with none failed ("no replica in state ...").
     """
     varied = study.varied_fields()
     replicated = study.replicas > 1
@@ -209,9 +216,15 @@ def build_table(study: Study, records: dict[str, dict]) -> SweepTable:
     for points in groups.values():
         p = points[0]
         recs = [records.get(q.key) or {"status": PointStatus.FAILED, "error": "no outcome recorded"} for q in points]
+        counts = state_counts([state_of(r.get("metrics")) for r in recs if r.get("status") in FINISHED])
+        if state is not None:
+            kept = [(q, r) for q, r in zip(points, recs) if state_of(r.get("metrics")) == state]
+            recs = [r for _, r in kept] or [{"status": PointStatus.FAILED, "error": f"no replica in state {state}"}]
+            points = [q for q, _ in kept] or points[:1]
         row = _point_row(p, varied)
         row.update(_aggregate(recs, [q.replica for q in points], replicated))
-        row["point_dir"] = f"points/{p.key}"
+        row["states"] = states_text(counts)
+        row["point_dir"] = f"points/{points[0].key}"  # with ``state``: its first replica in that state
         if replicated:
             row["replica_dirs"] = ";".join(f"points/{q.key}" for q in points)
         rows.append(row)
@@ -278,6 +291,7 @@ def replica_table(study: Study, records: dict[str, dict]) -> SweepTable:
         row["replica"] = p.replica
         row = {c: row[c] for c in columns if c in row}
         row.update(_aggregate([rec], [p.replica], False))
+        row["states"] = state_of(rec.get("metrics")) if rec.get("status") in FINISHED else None
         row["point_dir"] = f"points/{p.key}"
         rows.append(row)
     return SweepTable(rows, columns)
@@ -320,3 +334,29 @@ def run_states(out: str | os.PathLike, table: SweepTable) -> dict[str, str]:
                 status = None if rec is None else rec.get("status")
                 states[d] = status if status in (*FINISHED, PointStatus.FAILED) else PointStatus.UNFINISHED
     return states
+
+
+def state_tables(study: Study, out: str | os.PathLike) -> dict[str, SweepTable]:
+    """One table per state that any finished run of ``study`` in ``out`` reached
+    (:func:`build_table` with ``state``), read from the points' records; empty where no run has a
+    state (records without ``column_folds``). Nothing is written.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    out : str or os.PathLike
+        Its output folder OUT.
+
+    Returns
+    -------
+    dict of str to SweepTable
+        State -> its table, in the order of :data:`hydrojam.study.states.STATES`.
+    """
+    records = {}
+    for p in study.points():
+        rec = read_record(Path(out) / "points" / p.key)
+        if rec is not None and rec.get("status") in FINISHED:
+            records[p.key] = rec
+    seen = state_counts([state_of(r.get("metrics")) for r in records.values()])
+    return {state: build_table(study, records, state) for state in seen}

@@ -1,0 +1,85 @@
+"""The study's results written into a page's marked sections (hydrojam.paper.sections)."""
+
+from __future__ import annotations
+
+import pytest
+from paper_synthetic import Table, with_spread
+
+from hydrojam.paper import claims as pclaims, sections as psections, study as pstudy
+
+PAGE = """# A page
+
+Text before.
+
+<!-- reproduce: paper-quick -->
+old table
+<!-- /reproduce: paper-quick -->
+
+Between.
+
+<!-- reproduce: paper-quick verdicts -->
+old verdicts
+<!-- /reproduce: paper-quick verdicts -->
+
+Text after.
+"""
+
+
+def _states(rows):
+    """Two states: every point's replicas split 3 arc, 1 folded (the folded ones 30 deg lower)."""
+    arc = [dict(r, replicas_used=3) for r in rows]
+    folded = [dict(r, replicas_used=1, bending_angle_deg=(r.get("bending_angle_deg") or 0.0) - 30.0,
+                   bending_angle_deg_std=None) for r in rows]
+    return {"arc": Table(arc), "folded": Table(folded)}
+
+
+def test_sections_are_replaced_and_the_rest_kept(study_dir, tmp_path):
+    _, table = study_dir
+    rows = with_spread(table.rows, {"bending_angle_deg": 1.5, "tip_dx_mm": 0.5, "tip_dz_mm": 0.5, "curling_index": 0.01})
+    replicated = Table(rows)
+    results = pclaims.check_claims(replicated)
+    base = pstudy.paper_base(True)
+    lines = psections.results_lines(replicated, base, True, 4, 2, _states(rows), results)
+    page = tmp_path / "page.md"
+    page.write_text(PAGE, encoding="utf-8")
+    written = psections.write_sections(page, "paper-quick", lines, psections.verdict_lines(results, "paper-quick"))
+    assert written == ["paper-quick", "paper-quick verdicts"]
+    text = page.read_text(encoding="utf-8")
+    assert "old table" not in text and "old verdicts" not in text
+    for kept in ("# A page", "Text before.", "Between.", "Text after."):
+        assert text.count(kept) == 1
+    table_part = text.split("<!-- reproduce: paper-quick -->")[1].split("<!-- /reproduce: paper-quick -->")[0]
+    assert table_part.lstrip().startswith("Conditions: `hydrojam reproduce --quick --replicas 4`, runs computed by the code of `")
+    assert "mesh 4 mm, 4 runs a point, friction 0.01, 2 workers" in table_part
+    assert "| temperature | 275 K | " in table_part and "± 1.5" in table_part
+    assert "arc 3: " in table_part and "folded 1: " in table_part  # each state's runs and θ
+    counts = {v: sum(r.verdict == v for r in results) for v in pclaims.Verdict}
+    verdict_part = text.split("<!-- reproduce: paper-quick verdicts -->")[1]
+    for v, n in counts.items():
+        assert (f"| {v} | {n}: " in verdict_part) == (n > 0)
+    # again: the same page, the sections replaced once more, nothing duplicated
+    psections.write_sections(page, "paper-quick", ["new"], ["newer"])
+    text = page.read_text(encoding="utf-8")
+    assert text.count("<!-- reproduce: paper-quick -->") == 1 and "\nnew\n" in text and "\nnewer\n" in text
+
+
+def test_a_page_without_the_study_section_is_refused(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(PAGE, encoding="utf-8")
+    with pytest.raises(psections.SectionError, match=r"no section <!-- reproduce: paper-3d-quick -->"):
+        psections.check_page(page, "paper-3d-quick")
+    with pytest.raises(psections.SectionError, match=r"cannot be read"):
+        psections.check_page(tmp_path / "missing.md", "paper-quick")
+    psections.check_page(page, "paper-quick")
+
+
+def test_the_cli_refuses_a_page_without_a_section_before_any_work(tmp_path, capsys):
+    from hydrojam.cli import main
+
+    page = tmp_path / "page.md"
+    page.write_text("# nothing marked\n", encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["reproduce", "--quick", "-o", str(out), "--write-results", str(page)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--write-results" in err and "no section" in err
+    assert not out.exists() and page.read_text(encoding="utf-8") == "# nothing marked\n"
