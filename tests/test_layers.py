@@ -16,10 +16,10 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "hydrojam"
-LAYERS = ["_version", "_io", "_validation", "_format", "_lazy", "_interrupt", "_html", "materials", "fem", "actuator", "study", "assess",
-          "paper", "cli", "__main__"]
-RANK = {"_version": 0, "_io": 0, "_validation": 0, "_format": 0, "_lazy": 0, "_interrupt": 0, "_html": 0, "materials": 1, "fem": 2,
-        "actuator": 3, "study": 4, "assess": 5, "paper": 6, "cli": 7, "__main__": 8}
+LAYERS = ["_version", "_io", "_validation", "_format", "_lazy", "_interrupt", "_html", "materials", "fem", "actuator",
+          "study", "assess", "paper", "cli", "__main__"]
+RANK = {"_version": 0, "_io": 0, "_validation": 0, "_format": 0, "_lazy": 0, "_interrupt": 0, "_html": 0,
+        "materials": 1, "fem": 2, "actuator": 3, "study": 4, "assess": 5, "paper": 6, "cli": 7, "__main__": 8}
 
 
 def _module_name(path: Path) -> str:

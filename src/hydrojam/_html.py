@@ -147,12 +147,14 @@ def page_html(title: str, body: str) -> str:
     body holds a 3D view (:func:`scene_html`)."""
     scripts = ""
     if 'class="hj-scene"' in body:
-        scripts = (f'<script type="text/plain" id="hj-three">{_script_text(_asset("_vendor/three/three.module.min.js"))}</script>'
-                   f'<script type="text/plain" id="hj-orbit">{_script_text(_asset("_vendor/three/OrbitControls.js"))}</script>'
+        three, orbit = _asset("_vendor/three/three.module.min.js"), _asset("_vendor/three/OrbitControls.js")
+        scripts = (f'<script type="text/plain" id="hj-three">{_script_text(three)}</script>'
+                   f'<script type="text/plain" id="hj-orbit">{_script_text(orbit)}</script>'
                    f'<script type="module">{_script_text(_asset("_viewer.js"))}</script>')
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>{html.escape(title)}</title>"
             f"<style>{_CSS}</style></head><body>\n{body}\n{scripts}</body></html>\n")
 
 
-__all__ = ["page_html", "markdown_page", "scene_html", "scene_group", "markdown_html", "table_html", "figure_html", "data_uri"]
+__all__ = ["page_html", "markdown_page", "scene_html", "scene_group", "markdown_html", "table_html", "figure_html",
+           "data_uri"]
