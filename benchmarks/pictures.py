@@ -1,11 +1,11 @@
 """What the pictures of a run cost: the 3D render (final.png's), the actuation movie and the HTML
 page, drawn from a finished run's folder after the run (never inside the solve).
 
-    python benchmarks/pictures.py OUT3D [OUT2D] [--markdown docs/benchmarks.md]
+    python benchmarks/pictures.py OUT [OUT ...] [--markdown docs/benchmarks.md]
 
-OUT3D (and OUT2D): folders of finished runs of ``hydrojam run`` (with their steps/*.vtu). The render
-is timed twice in one process: the first includes importing PyVista and opening the off-screen
-OpenGL context, the second is what a movie's frame costs beyond its window. ``--markdown PAGE``
+OUT: folders of finished runs of ``hydrojam run`` (2D or 3D, with their steps/*.vtu). A 3D final
+state's render is timed twice in one process: the first of the process includes importing PyVista
+and opening the off-screen OpenGL context. ``--markdown PAGE``
 writes the table into PAGE's section between ``<!-- pictures.py: costs -->`` and
 ``<!-- /pictures.py: costs -->``.
 """
@@ -39,39 +39,52 @@ def _timed(fn):
     return time.perf_counter() - t0, out
 
 
-def measure(out3d: Path, out2d: Path | None) -> list[list[str]]:
-    """Rows (what, conditions, wall time) of the costs."""
+def _label(out: Path) -> str:
+    """The design of a run's folder in words: dimension and particle layers."""
+    import tomllib
+
+    d = tomllib.loads((out / "design.toml").read_text())
+    n = d.get("particle_layers", 5)
+    return f"{d.get('dimension', 2)}D, {n} layer{'s' if n != 1 else ''}"
+
+
+def measure(outs: list[Path]) -> list[list[str]]:
+    """Rows (what, conditions, wall time) of the costs, for each finished run's folder."""
     from hydrojam.actuator.movie import write_movie, written_states
     from hydrojam.actuator.page import final_state, write_run_page
     from hydrojam.actuator.render import render_state
 
     rows = []
-    mesh = final_state(out3d)
     size = (900, 800)
-    t_first, _ = _timed(lambda: render_state(mesh, size=size))
-    t_again, _ = _timed(lambda: render_state(mesh, size=size))
-    n_cells = len(mesh.cells[0].data)
-    rows.append(["3D render of the final state (final.png's), first in a process",
-                 f"{n_cells} tetra10 (whole actuator), {size[0]} x {size[1]} px; PyVista import and OpenGL context included",
-                 f"{t_first:.1f} s"])
-    rows.append(["3D render, again in the process", "the same", f"{t_again:.1f} s"])
+    first = True
     with tempfile.TemporaryDirectory() as tmp:
-        for out, label in ((out3d, "3D"), (out2d, "2D")):
-            if out is None:
-                continue
+        for out in outs:
+            label = _label(out)
+            mesh = final_state(out)
+            is3d = mesh.cells[0].type == "tetra10"
+            if is3d:
+                t_first, _ = _timed(lambda: render_state(mesh, size=size))
+                t_again, _ = _timed(lambda: render_state(mesh, size=size))
+                cells = f"{len(mesh.cells[0].data)} tetra10 (whole actuator), {size[0]} x {size[1]} px"
+                if first:
+                    rows.append([f"{label}: render of the final state (final.png's), first in a process",
+                                 cells + "; PyVista import and OpenGL context included", f"{t_first:.1f} s"])
+                    first = False
+                rows.append([f"{label}: render of the final state", cells, f"{t_again:.1f} s"])
             n = len(written_states(out))
-            gif = Path(tmp) / f"movie{label}.gif"
+            gif = Path(tmp) / "movie.gif"
             t, _ = _timed(lambda: write_movie(out, gif))
-            rows.append([f"{label} movie (`hydrojam animate`)", f"{n} states, 800 x 700 px, GIF {gif.stat().st_size / 1e6:.1f} MB",
+            rows.append([f"{label}: movie (`hydrojam animate`)", f"{n} states, 800 x 700 px, GIF {gif.stat().st_size / 1e6:.1f} MB",
                          f"{t:.1f} s ({t / n:.2f} s a frame)"])
-        page = Path(tmp) / "page"
-        page.mkdir()
-        for name in ("metrics.json", "design.toml", "final.png"):
-            if (out3d / name).is_file():
-                (page / name).write_bytes((out3d / name).read_bytes())
-        t, path = _timed(lambda: write_run_page(page, mesh))
-        rows.append(["3D run's report.html", f"final.png and the 3D view inlined: {path.stat().st_size / 1e6:.1f} MB",
-                     f"{t:.2f} s"])
+            if is3d:
+                page = Path(tmp) / "page"
+                page.mkdir(exist_ok=True)
+                for name in ("metrics.json", "design.toml", "final.png"):
+                    if (out / name).is_file():
+                        (page / name).write_bytes((out / name).read_bytes())
+                t, path = _timed(lambda: write_run_page(page, mesh))
+                rows.append([f"{label}: report.html", f"final.png and the 3D view inlined: {path.stat().st_size / 1e6:.1f} MB",
+                             f"{t:.2f} s"])
     return rows
 
 
@@ -100,12 +113,11 @@ def replace_section(page: str, name: str, text: str) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("out3d", type=Path, help="a finished 3D run's folder")
-    ap.add_argument("out2d", type=Path, nargs="?", help="a finished 2D run's folder")
+    ap.add_argument("outs", type=Path, nargs="+", help="finished runs' folders (2D or 3D)")
     ap.add_argument("--markdown", help="write the table into this page's section 'costs'")
     args = ap.parse_args()
     print_environment(["pyvista", "vtk", "matplotlib", "pillow"])
-    rows = measure(args.out3d, args.out2d)
+    rows = measure(args.outs)
     text = markdown(rows)
     print(text)
     if args.markdown:

@@ -231,24 +231,25 @@ class Renderer:
             mesh = _poly(pv, surf.points, surf.triangles[gel])
             mesh.cell_data["swelling ratio J"] = surf.swelling[gel]
             mesh = mesh.cell_data_to_point_data()
-            p.add_mesh(mesh, scalars="swelling ratio J", cmap=SWELLING_CMAP, clim=clim, smooth_shading=True,
+            p.add_mesh(mesh, scalars="swelling ratio J", cmap=SWELLING_CMAP, clim=clim, smooth_shading=True, render=False,
                        scalar_bar_args={"title": "", "vertical": False, "width": 0.5,
                                         "height": 0.08, "position_x": 0.25, "position_y": 0.05, "fmt": "%.1f",
                                         "n_labels": 5, "title_font_size": 18, "label_font_size": 16,
                                         "color": "black"})
-            p.add_text("particle swelling ratio J", position="lower_edge", font_size=11, color="black")
+            p.add_text("particle swelling ratio J", position="lower_edge", font_size=11, color="black", render=False)
         layer = surf.group("strain_limit")
         if layer.any():
-            p.add_mesh(_poly(pv, surf.points, surf.triangles[layer]), color=STRAIN_LIMIT_RGB, smooth_shading=False)
+            p.add_mesh(_poly(pv, surf.points, surf.triangles[layer]), color=STRAIN_LIMIT_RGB, smooth_shading=False,
+                       render=False)
         wall = surf.group("membrane")
         if wall.any():
             p.add_mesh(_poly(pv, surf.points, surf.triangles[wall]), color=MEMBRANE_RGB, opacity=MEMBRANE_OPACITY,
-                       smooth_shading=False)
+                       smooth_shading=False, render=False)
         if len(surf.outline):
             lines = np.column_stack([np.full(len(surf.outline), 2), surf.outline]).ravel()
-            p.add_mesh(pv.PolyData(surf.reference, lines=lines), color=OUTLINE_RGB, opacity=0.35, line_width=1.0)
+            p.add_mesh(pv.PolyData(surf.reference, lines=lines), color=OUTLINE_RGB, opacity=0.35, line_width=1.0, render=False)
         if title:
-            p.add_text(title, position="upper_edge", font_size=13, color="black")
+            p.add_text(title, position="upper_edge", font_size=13, color="black", render=False)
         self._frame(surf)
         return p.screenshot(None, return_img=True)
 
