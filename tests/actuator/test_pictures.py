@@ -82,8 +82,25 @@ def test_render_draws_the_bodies_in_their_colours(tmp_path):
     assert img.shape == (240, 320, 3)
     assert np.array_equal(np.asarray(Image.open(tmp_path / "r.png").convert("RGB")), img)
     assert float(img.std()) > 10.0
-    orange = np.all(np.abs(img.astype(int) - np.array([217, 115, 51])) < 60, axis=2)
-    assert orange.mean() > 0.01  # the strain-limit layer, lit
+    assert _orange_share(img) > 0.01  # the strain-limit layer
+
+
+def _orange_share(img) -> float:
+    """Share of the pixels in the strain-limit layer's colour (lit or shaded)."""
+    return float(np.all(np.abs(img.astype(int) - np.array([217, 115, 51])) < 60, axis=2).mean())
+
+
+@needs_pyvista
+@pytest.mark.slow
+def test_a_renderer_draws_every_state_anew():
+    """A movie's window draws each frame whole: the second state's frame has the strain-limit
+    layer too (VTK's screenshot of a window whose actors changed without a render was the stale
+    first frame's particles alone), and it differs from the first."""
+    with render_mod.Renderer((240, 200)) as r:
+        a = r.draw(state_surfaces(bent(box_mesh(), 0.0)), "first")
+        b = r.draw(state_surfaces(bent(box_mesh(), 30.0)), "second")
+    assert _orange_share(a) > 0.01 and _orange_share(b) > 0.01
+    assert float(np.abs(a.astype(float) - b).mean()) > 1.0
 
 
 def test_written_states_read_the_pvd_and_history(tmp_path):

@@ -251,6 +251,7 @@ class Renderer:
         if title:
             p.add_text(title, position="upper_edge", font_size=13, color="black", render=False)
         self._frame(surf)
+        p.render()
         return p.screenshot(None, return_img=True)
 
     def _frame(self, surf: Surfaces) -> None:
