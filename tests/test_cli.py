@@ -220,7 +220,7 @@ def test_run_writes_every_output(tmp_path, capsys):
     out = tmp_path / "out"
     rc, _, _ = run(capsys, "run", str(design), "-o", str(out), "--quiet")
     assert rc == 0
-    for name in ("design.toml", "metrics.json", "history.csv", "centreline.csv", "results.pvd", "final.png"):
+    for name in ("design.toml", "metrics.json", "history.csv", "centreline.csv", "results.pvd", "final.png", "report.html"):
         assert (out / name).is_file(), name
     text = (out / "metrics.json").read_text()
     assert "NaN" not in text

@@ -1,7 +1,7 @@
 """The package's shape (docs/decisions.md, "Shape of the code"): data flows one way through the layers, no import
 cycles, light imports stay light, and no module changes a user's matplotlib backend.
 
-Layers, lowest first: the shared helpers (``_version``, ``_io``, ``_validation``, ``_format``, ``_lazy``, ``_interrupt``) < ``materials`` < ``fem`` <
+Layers, lowest first: the shared helpers (``_version``, ``_io``, ``_validation``, ``_format``, ``_lazy``, ``_interrupt``, ``_html``) < ``materials`` < ``fem`` <
 ``actuator`` < ``study`` < ``assess`` < ``paper`` < ``cli`` < ``__main__`` (the command's entry point). A module may import its own layer and the ones
 below, never one above. Imports inside functions count too: a lazy import is still a dependency.
 """
@@ -16,10 +16,10 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "hydrojam"
-LAYERS = ["_version", "_io", "_validation", "_format", "_lazy", "_interrupt", "materials", "fem", "actuator", "study", "assess",
-          "paper", "cli", "__main__"]
-RANK = {"_version": 0, "_io": 0, "_validation": 0, "_format": 0, "_lazy": 0, "_interrupt": 0, "materials": 1, "fem": 2,
-        "actuator": 3, "study": 4, "assess": 5, "paper": 6, "cli": 7, "__main__": 8}
+LAYERS = ["_version", "_io", "_validation", "_format", "_lazy", "_interrupt", "_html", "materials", "fem", "actuator",
+          "study", "assess", "paper", "cli", "__main__"]
+RANK = {"_version": 0, "_io": 0, "_validation": 0, "_format": 0, "_lazy": 0, "_interrupt": 0, "_html": 0,
+        "materials": 1, "fem": 2, "actuator": 3, "study": 4, "assess": 5, "paper": 6, "cli": 7, "__main__": 8}
 
 
 def _module_name(path: Path) -> str:

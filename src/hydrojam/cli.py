@@ -276,7 +276,8 @@ def run_design(
     """Simulate one actuator along its stimulus path and write its results to OUT.
 
     OUT gets design.toml (resolved), metrics.json, history.csv, centreline.csv, steps/*.vtu with
-    results.pvd (ParaView) and final.png; with stimulus.schedule (a time-resolved temperature) also
+    results.pvd (ParaView), final.png (3D: with a render of the whole actuator) and report.html (one
+    page that opens offline: metrics, figures, 3D: an interactive view); with stimulus.schedule (a time-resolved temperature) also
     angle_time.png, the bending angle against time. Exit status 0 when the target stimulus was reached, 1
     when the solver stopped early (the results then hold the last converged state), 2 on bad input.
 
@@ -307,6 +308,45 @@ def run_design(
                          "(a single run is one process)")
     with _output_folder(out, FolderKind.RUN):  # before meshing: a folder that cannot be taken is refused at once
         _run_one(design, design_file, out, vtu, fresh, quiet)
+
+
+@app.command()
+def animate(
+    out: Path = typer.Argument(..., help="A run's output folder (hydrojam run -o OUT), with its steps/*.vtu."),
+    movie: Optional[Path] = typer.Option(None, "--movie", help="The GIF to write (default: OUT/movie.gif)."),
+    fps: float = typer.Option(6.0, "--fps", help="Frames per second, in (0, 50]."),
+    max_frames: int = typer.Option(120, "--max-frames", help="Most frames, in [2, 1000]; more states are thinned evenly."),
+) -> None:
+    """Write the actuation movie of a run: a GIF from the as-prepared state to the end, one frame
+    per written state, with the load parameter s, the temperature and the bending angle on each.
+
+    3D: renders of the whole actuator (membrane translucent, particles coloured by swelling ratio;
+    with the extra 'render', else the section y = 0); 2D: the section as in final.png. One camera,
+    scale and colour range for all frames. Where OUT holds a finished run, its report.html is
+    rewritten to show the movie. Exit status 0, 2 for a folder without written states.
+    """
+    from hydrojam.actuator.movie import NoStates, write_movie
+    from hydrojam.actuator.page import write_run_page
+
+    if not out.is_dir():
+        raise InputError(f"{out}: {'not a folder' if out.exists() else 'no such folder'}")
+    if not (0.0 < fps <= 50.0):
+        raise InputError(f"--fps: allowed (0, 50] (got {fps:g})")
+    if not (2 <= max_frames <= 1000):
+        raise InputError(f"--max-frames: allowed [2, 1000] (got {max_frames})")
+    if movie is not None and movie.suffix.lower() != ".gif":
+        raise InputError(f"--movie: a .gif file (got {movie})")
+    import time
+
+    t0 = time.perf_counter()
+    try:
+        path = write_movie(out, movie, fps=fps, max_frames=max_frames)
+    except NoStates as err:
+        raise InputError(str(err)) from None
+    console = Console(stderr=True)
+    console.print(f"movie: {path} ({time.perf_counter() - t0:.1f} s)", highlight=False, soft_wrap=True)
+    if (out / "metrics.json").is_file() and movie is None:
+        console.print(f"page: {write_run_page(out)}", highlight=False, soft_wrap=True)
 
 
 @contextlib.contextmanager
@@ -392,7 +432,7 @@ def _run_model(design, design_file: Path, out: Path, vtu: bool, fresh: bool, qui
 
         result = simulate(model, on_step=on_step, checkpoint=writer.checkpoint_path, resume=ck,
                           on_release=on_release)
-    metrics = writer.finish(result)
+    metrics = writer.finish(result, page=True)
     if not quiet:
         console.print(_run_summary(f"hydrojam run: {design_file.name} -> {out}", metrics))
         if metrics.get("buckled_at_s") is not None:  # docs/solver.md, "Where the path branched"

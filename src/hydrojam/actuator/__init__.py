@@ -1,5 +1,6 @@
 """The actuator: its design (TOML), geometry, model (bodies, materials, clamp, contact), stimulus
-path, simulation, metrics, output files, checkpoints and figures.
+path, simulation, metrics, output files, checkpoints and figures (3D renders, the actuation movie
+and the run's HTML page).
 
 ``Design`` -> ``build_model(design)`` -> ``simulate(model)`` -> ``SimulationResult`` with its
 ``metrics``; ``ResultWriter`` writes the files of ``hydrojam run``. The names below are the public
@@ -21,5 +22,8 @@ _PUBLIC = {
     "hydrojam.actuator.plots": ['plot_actuator', 'plot_angle_time', 'mid_section'],
     "hydrojam.actuator.geometry": ["actuator_2d"],
     "hydrojam.actuator.provenance": ["source_provenance"],
+    "hydrojam.actuator.render": ['render_state', 'state_surfaces', 'renders_available'],
+    "hydrojam.actuator.movie": ['write_movie'],
+    "hydrojam.actuator.page": ['write_run_page'],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

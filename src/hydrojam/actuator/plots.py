@@ -45,9 +45,21 @@ def mid_section(X: np.ndarray, cells: np.ndarray, length: float, fields: dict):
     return tris, body, swell, edges[first[counts == 1]]
 
 
-def plot_actuator(model, state, path: str | os.PathLike) -> None:
+def _trimmed(img: np.ndarray) -> np.ndarray:
+    """An image without its white margins (a margin of 2 % of its size kept)."""
+    ink = np.flatnonzero(np.any(img < 250, axis=(1, 2))), np.flatnonzero(np.any(img < 250, axis=(0, 2)))
+    if not len(ink[0]):
+        return img
+    pad = int(0.02 * max(img.shape[:2]))
+    r0, r1 = max(ink[0][0] - pad, 0), min(ink[0][-1] + pad + 1, img.shape[0])
+    c0, c1 = max(ink[1][0] - pad, 0), min(ink[1][-1] + pad + 1, img.shape[1])
+    return img[r0:r1, c0:c1]
+
+
+def plot_actuator(model, state, path: str | os.PathLike, render: np.ndarray | None = None,
+                  render_title: str = "") -> None:
     """Draw the actuator at a state over its undeformed outline (left) and the centreline curvature
-    profile (right).
+    profile (right); with ``render``, that 3D picture first.
 
     Particles coloured by swelling ratio (gel volume / dry volume); membrane light grey,
     strain-limit layer dark grey. Lengths in mm. A 3D actuator is drawn as its section y = 0 (the
@@ -62,6 +74,10 @@ def plot_actuator(model, state, path: str | os.PathLike) -> None:
         The state drawn (positions [mm]).
     path : str or os.PathLike
         The PNG file to write.
+    render : ndarray, shape (h, w, 3), optional
+        A 3D render of the state (:mod:`hydrojam.actuator.render`), drawn left of the section.
+    render_title : str
+        The render's title.
     """
     mesh, X, x = model.mesh, model.mesh.points, state.x
     fields = cell_fields(model, x, state.s)
@@ -75,8 +91,15 @@ def plot_actuator(model, state, path: str | os.PathLike) -> None:
         body = np.repeat(fields["body_id"], rep)
         swell = np.repeat(fields["swelling_ratio"], rep)
         seg = _outline_segments(mesh)
-    fig = Figure(figsize=(11, 6.5))
-    ax, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.25, 1]})
+    if render is None:
+        fig = Figure(figsize=(11, 6.5))
+        ax, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.25, 1]})
+    else:
+        fig = Figure(figsize=(18, 6.5))
+        ax0, ax, ax2 = fig.subplots(1, 3, gridspec_kw={"width_ratios": [1.3, 1.25, 1]})
+        ax0.imshow(_trimmed(render))
+        ax0.set_axis_off()
+        ax0.set_title("3D, the whole actuator (membrane translucent, outline as prepared)\n" + render_title, fontsize=10)
     ax.add_collection(LineCollection(X[seg], colors="0.55", linewidths=0.7, linestyles="--"))
     gel = body >= PARTICLE_BODY
     polys = PolyCollection(x[tris[~gel]], facecolors=np.where(body[~gel, None] == 0, [[0.82] * 3], [[0.45] * 3]),

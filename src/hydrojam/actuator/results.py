@@ -10,7 +10,10 @@ Layout of an output folder ``OUT``::
                       (in the time [s] with a time-resolved stimulus)
     centreline.csv    final centreline profile: arc length, rotation, curvature
     metrics.json      final metrics, convergence, wall time, Newton iterations, provenance
-    final.png         deformed actuator over the undeformed outline
+    final.png         deformed actuator over the undeformed outline; 3D: a render of the whole
+                      actuator beside it (with the extra ``render``: :mod:`hydrojam.actuator.render`)
+    report.html       with ``finish(page=True)`` (``hydrojam run``): metrics, figures and (3D) an
+                      interactive view of the final state in one page that opens offline
     angle_time.png    with stimulus.schedule only: bending angle, free-end displacement and
                       temperature against time
     checkpoint.npz    while the run goes: its state after the last accepted step, to go on
@@ -45,7 +48,9 @@ from hydrojam.actuator.fields import cell_fields
 from hydrojam.actuator.metrics import HISTORY_FIELDS, STATE_METRICS, centreline_profile, metric_names
 from hydrojam.actuator.model import ActuatorModel
 from hydrojam.actuator.provenance import run_provenance
+from hydrojam.actuator.page import write_run_page
 from hydrojam.actuator.plots import plot_actuator, plot_angle_time
+from hydrojam.actuator.render import render_state, render_title, renders_available
 from hydrojam.actuator.simulate import SimulationResult, StepState, checkpoint_states
 
 #: the columns of history.csv (:data:`hydrojam.actuator.metrics.HISTORY_FIELDS`)
@@ -111,6 +116,17 @@ def write_vtu(path: Path, model: ActuatorModel, state: StepState) -> None:
     """One state as a VTU file (atomic): :func:`vtu_mesh`."""
     with atomic_path(path) as tmp:
         meshio.write(tmp, vtu_mesh(model, state), file_format="vtu")
+
+
+def plot_state(model: ActuatorModel, state: StepState, path: Path) -> None:
+    """final.png of a state (:func:`~hydrojam.actuator.plots.plot_actuator`); in 3D with a render
+    of the whole actuator beside the section (with PyVista; without it, said once)."""
+    img = None
+    if model.mesh.dim == 3 and renders_available():
+        img = render_state(vtu_mesh(model, state), size=(900, 800))
+    m = state.metrics
+    plot_actuator(model, state, path, render=img,
+                  render_title=render_title(m["bending_angle_deg"], m["tip_dx_mm"], m["tip_dz_mm"], state.T))
 
 
 def pvd_text(entries: list[tuple[float, str]]) -> str:
@@ -215,7 +231,8 @@ class ResultWriter:
             for old in steps.glob("step_*.vtu"):
                 if f"steps/{old.name}" not in keep:
                     old.unlink()
-        for name in ("metrics.json", "final.png", "angle_time.png", "centreline.csv", "results.pvd", "history.csv"):
+        for name in ("metrics.json", "final.png", "angle_time.png", "report.html", "movie.gif", "centreline.csv",
+                     "results.pvd", "history.csv"):
             (self.out / name).unlink(missing_ok=True)
         if ck is None:
             self.checkpoint_path.unlink(missing_ok=True)
@@ -240,9 +257,9 @@ class ResultWriter:
             self.entries.append((state.s if state.time_s is None else state.time_s, rel))
             write_text_atomic(self.out / "results.pvd", pvd_text(self.entries))
 
-    def finish(self, result: SimulationResult, plot: bool = True) -> dict:
+    def finish(self, result: SimulationResult, plot: bool = True, page: bool = False) -> dict:
         """Write centreline.csv, metrics.json and final.png (and angle_time.png on a time-resolved
-        path); returns the metrics written."""
+        path), with ``page`` report.html (:mod:`hydrojam.actuator.page`); returns the metrics written."""
         model, final = self.model, result.final
         cl = model.centreline_nodes
         xz = [0, -1]  # 3D: the profile in the x-z plane
@@ -256,14 +273,16 @@ class ResultWriter:
         metrics["timings_s"] = finite_or_none(result.timings)
         metrics["provenance"] = run_provenance(model.design.replicas.index, model.design.replicas.seed)
         if plot:
-            plot_actuator(model, final, self.out / "final.png")
+            plot_state(model, final, self.out / "final.png")
             if model.path.timed:
                 plot_angle_time(result.states, model.path.schedule, self.out / "angle_time.png")
         if result.resumed:
             metrics["provenance"]["resumed"] = [finite_or_none(r) for r in result.resumed]
         write_text_atomic(self.out / "metrics.json", json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+        if page:
+            write_run_page(self.out, final=vtu_mesh(model, final) if model.mesh.dim == 3 else None)
         self.checkpoint_path.unlink(missing_ok=True)
         return metrics
 
 
-__all__ = ["ResultWriter", "vtu_mesh", "write_vtu", "mirrored_half", "pvd_text", "history_row", "ordered_metrics", "HISTORY_COLUMNS"]
+__all__ = ["ResultWriter", "plot_state", "vtu_mesh", "write_vtu", "mirrored_half", "pvd_text", "history_row", "ordered_metrics", "HISTORY_COLUMNS"]

@@ -11,6 +11,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from hydrojam._format import duration
+from hydrojam._html import markdown_page
 from hydrojam._io import atomic_path, make_folder, write_text_atomic
 from hydrojam.actuator.design import design_to_toml
 from hydrojam.assess.assessment import Assessment
@@ -122,8 +123,9 @@ def conclusion(a: Assessment) -> list[str]:
 def write_report(a: Assessment, out: str | os.PathLike) -> Path:
     """Write an assessment's report and its files into a folder.
 
-    The files are report.md, assessment.json, design.toml and the figures (load_deflection.png,
-    blocked_force.png, confinement.png).
+    The files are report.md, report.html (the same with its figures inlined: one file that opens
+    offline), assessment.json, design.toml and the figures (load_deflection.png, blocked_force.png,
+    confinement.png).
 
     Parameters
     ----------
@@ -190,4 +192,5 @@ def write_report(a: Assessment, out: str | os.PathLike) -> Path:
               "Definitions, units and the verification: docs/assess.md."]
     report = out / "report.md"
     write_text_atomic(report, "\n".join(lines) + "\n")
+    write_text_atomic(out / "report.html", markdown_page("\n".join(lines) + "\n", out, "hydrojam assessment"))
     return report

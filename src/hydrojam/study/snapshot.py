@@ -76,8 +76,7 @@ def write_snapshots(out: str | os.PathLike, dest: str | os.PathLike, on_run=None
     StatusError
         For a folder that is neither a study's nor a run's.
     """
-    from hydrojam.actuator.plots import plot_actuator
-    from hydrojam.actuator.results import write_vtu
+    from hydrojam.actuator.results import plot_state, write_vtu
 
     out, dest = Path(out), Path(dest)
     st = folder_status(out)
@@ -95,6 +94,6 @@ def write_snapshots(out: str | os.PathLike, dest: str | os.PathLike, on_run=None
         make_folder(dest)
         vtu, png = dest / f"{name}.vtu", dest / f"{name}.png"
         write_vtu(vtu, model, state)
-        plot_actuator(model, state, png)
+        plot_state(model, state, png)
         written.append(Snapshot(name, run.points, state.s, releasing, state.metrics, vtu, png))
     return written
