@@ -17,13 +17,13 @@ _PUBLIC = {
     "hydrojam.actuator.simulate": ['SimulationResult', 'simulate', 'ACTUATOR_PATH', 'STABILISATION', 'StepState'],
     "hydrojam.actuator.stimulus": ['StimulusPath', 'stimulus_path', 'TimedStimulusPath', 'timed_stimulus_path'],
     "hydrojam.actuator.metrics": ['Metric', 'Gauges', 'metric', 'metric_names', 'bending_angle_deg', 'tip_displacement', 'curling_index', 'centreline_profile', 'STATE_METRICS', 'centreline_points'],
-    "hydrojam.actuator.results": ['ResultWriter', 'vtu_mesh', 'write_vtu'],
+    "hydrojam.actuator.results": ['ResultWriter', 'vtu_mesh', 'write_vtu', 'plot_state'],
     "hydrojam.actuator.checkpoint": ['RunCheckpoint', 'CheckpointError', 'load_checkpoint', 'save_checkpoint', 'CHECKPOINT', 'ReleaseProgress', 'release_progress'],
     "hydrojam.actuator.plots": ['plot_actuator', 'plot_angle_time', 'mid_section'],
     "hydrojam.actuator.geometry": ["actuator_2d"],
     "hydrojam.actuator.provenance": ["source_provenance"],
     "hydrojam.actuator.render": ['render_state', 'state_surfaces', 'renders_available'],
-    "hydrojam.actuator.movie": ['write_movie'],
+    "hydrojam.actuator.movie": ['write_movie', 'NoStates'],
     "hydrojam.actuator.page": ['write_run_page'],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 
 from hydrojam._io import atomic_path
 from hydrojam.actuator.model import PARTICLE_BODY
-from hydrojam.actuator.plots import _mid_section
+from hydrojam.actuator.plots import mid_section
 from hydrojam.actuator.render import Renderer, renders_available, state_surfaces, swelling_range
 from hydrojam.fem.elements import ELEMENTS, straight_pieces
 
@@ -97,13 +97,13 @@ def _thin(states: list, max_frames: int) -> list:
 def _section(mesh: meshio.Mesh):
     """A state's section in the x-z plane: (reference (n, 2), deformed (n, 2), triangles (k, 3),
     body and swelling ratio of each triangle, outline segments (m, 2)); 2D: the whole mesh, 3D:
-    the section y = 0 (:func:`hydrojam.actuator.plots._mid_section`)."""
+    the section y = 0 (:func:`hydrojam.actuator.plots.mid_section`)."""
     X = np.asarray(mesh.points, dtype=float)
     x = X + np.asarray(mesh.point_data["displacement"], dtype=float)
     block = mesh.cells[0]
     fields = {k: np.asarray(v[0]).ravel() for k, v in mesh.cell_data.items() if k in ("body_id", "swelling_ratio")}
     if block.type == "tetra10":
-        tris, body, swell, seg = _mid_section(X, block.data, float(np.ptp(X[:, 2])), fields)
+        tris, body, swell, seg = mid_section(X, block.data, float(np.ptp(X[:, 2])), fields)
     else:
         cells = block.data
         tris = straight_pieces(cells, 2)
