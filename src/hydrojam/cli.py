@@ -469,7 +469,8 @@ def _replica_summary(title: str, summary) -> Table:
         table.add_row(name, num(sp.mean), num(sp.std), f"{num(sp.min)} (#{sp.argmin})" if sp.n else "—",
                       f"{num(sp.max)} (#{sp.argmax})" if sp.n else "—", f"{sp.n}/{summary.count}", metric(name).unit)
     table.caption = (f"seed {summary.design.replicas.seed}, jitter {summary.design.replicas.jitter:g} x clearance; "
-                     f"wall time {summary.wall_time_s:.1f} s (replicas in parallel), summed {summary.compute_time_s:.1f} s")
+                     f"wall time {summary.wall_time_s:.1f} s (replicas in parallel), summed {summary.compute_time_s:.1f} s"
+                     + (f"; states: {summary.states_text}" if summary.states_text else ""))
     return table
 
 
@@ -753,6 +754,7 @@ def reproduce(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
     replicas: int = typer.Option(1, "--replicas", help="Replicas per point: the table and figures give their mean and spread, and a statement agrees or disagrees only beyond the spread."),
     report_only: bool = typer.Option(False, "--report-only", help="Run nothing: the table, figures and report.md of the points finished in OUT so far, the others shown as not finished (an interim report of a study in progress)."),
+    overrides: list[str] = typer.Option([], "--set", help="Change a model choice for every point, e.g. --set friction=0.1 (repeatable): a study of its own, for its own output folder (docs/reproduce.md, \"Sensitivity\")."),
     write_results: list[Path] = typer.Option([], "--write-results", help="A Markdown page whose sections '<!-- reproduce: STUDY -->' (and 'STUDY verdicts') take the results table and verdicts, with a line of conditions (repeatable; e.g. README.md, docs/reproduce.md)."),
 ) -> None:
     """Reproduce the paper's Section IV (2D, or 3D with --dimension 3): the temperature,
@@ -775,6 +777,10 @@ def reproduce(
         raise InputError("--compare-2d: only with --dimension 3 (it compares the 3D study with a 2D one)")
     _check_replicas(replicas)
     try:
+        paper_study(quick, dimension=dimension, overrides=overrides)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    try:
         paper_study(quick, sweep or None, dimension=dimension)
     except ValueError as err:
         raise InputError(f"--sweep: {err}") from None
@@ -789,19 +795,19 @@ def reproduce(
             raise InputError(f"--compare-2d: {err}") from None
     for page in write_results:
         try:
-            check_page(page, study_name(quick, dimension))
+            check_page(page, study_name(quick, dimension, overrides))
         except SectionError as err:
             raise InputError(f"--write-results: {err}") from None
     if report_only:
         _interim_report(lambda: run_reproduce(out, quick=quick, sweeps=sweep or None, replicas=replicas,
                                               dimension=dimension, compare_2d=compare_2d, report_only=True,
-                                              results_pages=write_results),
+                                              results_pages=write_results, overrides=overrides),
                         out, quiet)
         return
     _run_with_progress(lambda on_point, on_running: run_reproduce(
                            out, quick=quick, workers=workers, scheduler=scheduler, sweeps=sweep or None,
                            on_point=on_point, replicas=replicas, dimension=dimension, compare_2d=compare_2d,
-                           on_running=on_running, results_pages=write_results),
+                           on_running=on_running, results_pages=write_results, overrides=overrides),
                        out, quiet, report=True)
 
 

@@ -455,3 +455,25 @@ def test_centreline_points_converge_at_second_order_on_a_varying_curvature():
 def test_centreline_points_refuse_mismatched_columns():
     with pytest.raises(ValueError, match="one length"):
         centreline_points([0.0, 1.0], [0.0])
+
+
+def test_column_folds_reads_a_column_out_of_its_line():
+    """column_folds on an arc of radius 40 mm (the strain-limit layer's mid-line) with layer centres
+    20 mm outside it, 24 deg apart (about a 16 mm particle's pitch): 0 for the arc; 1 with one layer
+    pushed 20 mm further out (more than d/2 = 8 mm beyond the median distance), as in the folded 3D
+    column; 1 with one layer set beside the one before (no advance along the line)."""
+    from hydrojam.actuator.metrics import column_folds
+
+    s = np.linspace(0.0, np.radians(150.0), 200)
+    line = np.column_stack([40.0 * (1.0 - np.cos(s)), -40.0 * np.sin(s)])
+    phi = np.radians(np.array([12.0, 36.0, 60.0, 84.0, 108.0]))
+    centre = lambda r, p: np.column_stack([40.0 - r * np.cos(p), -r * np.sin(p)])  # noqa: E731
+    arc = centre(60.0, phi)
+    assert column_folds(arc, line, 16.0) == 0
+    out = arc.copy()
+    out[3] = centre(80.0, phi[3:4])[0]
+    assert column_folds(out, line, 16.0) == 1
+    beside = arc.copy()
+    beside[4] = centre(60.0, phi[3:4] + np.radians(2.0))[0]  # 1.3 mm along the line beyond layer 3
+    assert column_folds(beside, line, 16.0) == 1
+    assert column_folds(arc[:1], line, 16.0) == 0

@@ -49,7 +49,7 @@ def test_sections_are_replaced_and_the_rest_kept(study_dir, tmp_path):
     for kept in ("# A page", "Text before.", "Between.", "Text after."):
         assert text.count(kept) == 1
     table_part = text.split("<!-- reproduce: paper-quick -->")[1].split("<!-- /reproduce: paper-quick -->")[0]
-    assert table_part.lstrip().startswith("Conditions: `hydrojam reproduce --quick --replicas 4`, code of `")
+    assert table_part.lstrip().startswith("Conditions: `hydrojam reproduce --quick --replicas 4`, runs computed by the code of `")
     assert "mesh 4 mm, 4 runs a point, friction 0.01, 2 workers" in table_part
     assert "| temperature | 275 K | " in table_part and "± 1.5" in table_part
     assert "arc 3: " in table_part and "folded 1: " in table_part  # each state's runs and θ

@@ -175,3 +175,20 @@ def test_the_kept_3d_records_give_the_report_again(tmp_path):
     (other / "study.toml").write_text('name = "my-study"\n')
     done = subprocess.run(["sh", str(data / "restore.sh"), str(other)], capture_output=True, text=True)
     assert done.returncode == 2 and "another study" in done.stderr and not (other / "points").exists()
+
+
+def test_a_study_under_other_model_choices_is_one_of_its_own():
+    """--set friction=0.1: the base design changes for every point, the study gets a name of its
+    own (so it never shares a folder with the default's), its kind is still the quick 3D study's,
+    and no point shares a cache key with the default study's."""
+    default = pstudy.paper_study(True, ["temperature"], dimension=3)
+    other = pstudy.paper_study(True, ["temperature"], dimension=3, overrides=["friction=0.1"])
+    assert other.name == "paper-3d-quick--friction_0_1" == pstudy.study_name(True, 3, ["friction=0.1"])
+    assert pstudy.study_kind(other.name) == (True, 3)
+    assert other.base == apply_overrides(default.base, ["friction=0.1"])
+    assert not {p.key for p in other.points()} & {p.key for p in default.points()}
+    assert pstudy.reproduce_command(True, 3, 3, ["friction=0.1"]).endswith("--replicas 3 --set friction=0.1")
+    two = pstudy.study_name(True, 3, ["membrane.shear_modulus=0.046", "friction=0"])
+    assert two == "paper-3d-quick--membrane_shear_modulus_0_046--friction_0"
+    with pytest.raises(ValueError, match="friction"):
+        pstudy.paper_study(True, dimension=3, overrides=["friction=5"])

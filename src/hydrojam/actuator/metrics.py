@@ -83,8 +83,9 @@ STATE_METRICS: tuple[Metric, ...] = (
     Metric("packing_fraction", "-", "particle area / cavity area (3D: volumes)", float, "state", "φ"),
     Metric("contacts_per_particle", "-", "mean coordination number", float, "state", "Z"),
     Metric("mean_swelling_ratio", "-", "particle area / as-prepared area (3D: volumes)", float, "state"),
-    Metric("column_folds", "-", "neighbouring particle layers that do not advance along the centreline by half a "
-           "particle diameter (0: the column stays one arc; docs/replicas.md, \"States\")", int, "state", "folds"),
+    Metric("column_folds", "-", "particle layers out of the column's line: further from the centreline than the "
+           "median layer, or not beyond the layer before, by half a particle diameter (0: the column stays one "
+           "arc; docs/replicas.md, \"States\")", int, "state", "folds"),
 )
 
 #: what a run reports besides its final state's metrics, in the order of metrics.json
@@ -648,14 +649,15 @@ def contacts_per_particle(
 
 
 def column_folds(layer_centres, line, diameter: float) -> int:
-    """Folds of a particle column: neighbouring layers whose centres do not advance along the
-    centreline by half a particle diameter [-].
+    """Folds of a particle column: layers that leave the column's line [-].
 
     Each layer's centre is projected on the centreline (its nearest point on the polyline) and
-    read as an arc length from the clamp. A column that stays one arc advances by about a
-    particle diameter a layer; one that folds puts a layer beside (or behind) the one before it,
-    an advance near zero or negative. So the count is the number of k with
-    ``s[k + 1] - s[k] < diameter / 2``: 0 for one arc, 1 for one fold.
+    read as an arc length from the clamp and a distance from the line. A column that stays one arc
+    advances by about a particle diameter a layer and keeps its layers at one distance from the
+    strain-limit layer; where it folds, a layer is pushed out of that line (further from the
+    strain-limit layer than the median layer by half a diameter or more) or set beside the layer
+    before it (an advance along the line below half a diameter). The count is the number of
+    layers pushed out plus the number of neighbouring pairs that do not advance: 0 for one arc.
 
     Parameters
     ----------
@@ -679,12 +681,15 @@ def column_folds(layer_centres, line, diameter: float) -> int:
     seg_len2 = np.einsum("ij,ij->i", seg, seg)
     start = np.concatenate([[0.0], np.cumsum(np.sqrt(seg_len2))])
     arc = np.empty(len(centres))
+    dist = np.empty(len(centres))
     for k, c in enumerate(centres):
         t = np.clip(np.einsum("ij,ij->i", c - a, seg) / np.where(seg_len2 > 0, seg_len2, 1.0), 0.0, 1.0)
         dist2 = np.sum((a + t[:, None] * seg - c) ** 2, axis=1)
         i = int(np.argmin(dist2))
         arc[k] = start[i] + t[i] * np.sqrt(seg_len2[i])
-    return int(np.sum(np.diff(arc) < 0.5 * float(diameter)))
+        dist[k] = np.sqrt(dist2[i])
+    half = 0.5 * float(diameter)
+    return int(np.sum(dist - np.median(dist) > half) + np.sum(np.diff(arc) < half))
 
 
 # ------------------------------------------------------------------------------------------------

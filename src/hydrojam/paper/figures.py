@@ -406,11 +406,18 @@ def figure_names(sweep: PaperSweep) -> tuple[str, str]:
     return f"figures/{sweep.name}_shapes.png", f"figures/{sweep.name}_trends.png"
 
 
-def write_figures(out: str | os.PathLike, table) -> list[Path]:
+def state_figure_name(sweep: PaperSweep, state: str) -> str:
+    """The sweep's shapes figure of one state's runs ("figures/temperature_shapes_folded.png")."""
+    return f"figures/{sweep.name}_shapes_{state}.png"
+
+
+def write_figures(out: str | os.PathLike, table, states: dict | None = None) -> list[Path]:
     """Write both figures of every sweep into ``OUT/figures/``.
 
     The figures are ``<sweep>_shapes.png`` (:func:`plot_shapes`) and ``<sweep>_trends.png``
-    (:func:`plot_trends`); a sweep without rows is skipped.
+    (:func:`plot_trends`); a sweep without rows is skipped. Where the runs reach two states or
+    more, each state also gets ``<sweep>_shapes_<state>.png``: every point drawn as one replica in
+    that state (a point with none says so).
 
     Parameters
     ----------
@@ -418,6 +425,8 @@ def write_figures(out: str | os.PathLike, table) -> list[Path]:
         The study's output folder OUT.
     table : SweepTable or list of dict
         The study's results.
+    states : dict of str to SweepTable, optional
+        State -> the table of its runs alone (:func:`hydrojam.study.table.state_tables`).
 
     Returns
     -------
@@ -434,4 +443,9 @@ def write_figures(out: str | os.PathLike, table) -> list[Path]:
         plot_shapes(out, rows, sw.field, shapes)
         plot_trends(rows, sw.field, trends, sw.label, sw.unit)
         written += [shapes, trends]
+        for state, state_table in (states or {}).items() if len(states or {}) > 1 else ():
+            path = out / state_figure_name(sw, state)
+            plot_shapes(out, rows_of(state_table, sw.name), sw.field, path, label=f"{sw.label} ({state})",
+                        unit=sw.unit)
+            written.append(path)
     return written

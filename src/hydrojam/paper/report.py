@@ -24,7 +24,7 @@ from hydrojam.paper.claims import (
     check_claims,
 )
 from hydrojam.paper.compare import comparison_lines
-from hydrojam.paper.figures import figure_names
+from hydrojam.paper.figures import figure_names, state_figure_name
 from hydrojam.paper.study import PaperSweep, paper_base, paper_sweeps, reproduce_command
 from hydrojam.study.cache import ROW_STATUSES, PointStatus
 
@@ -191,7 +191,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                  explanations: dict[str, str] | None = None, *, workers: int | None = None,
                  scheduler: str | None = None, base: Design | None = None, compare_2d=None,
                  compare_source: str | os.PathLike | None = None, computed: int | None = None,
-                 ran: bool = True, states: dict | None = None) -> Path:
+                 ran: bool = True, states: dict | None = None, overrides=()) -> Path:
     """Write ``OUT/report.md`` (atomically) and return its path.
 
     What was run (quick or full, mesh size, points, workers, wall time, hydrojam version); per
@@ -234,6 +234,8 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
         State -> the table of that state's runs alone (:func:`hydrojam.study.table.state_tables`);
         with two or more, the section "States" gives each point's runs by state and every claim's
         verdict per state.
+    overrides : sequence of str, optional
+        The model choices the study changed for every point (``--set``), named in the report.
 
     Returns
     -------
@@ -256,7 +258,7 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     verdicts = {v: sum(1 for c in results if c.verdict == v) for v in Verdict}
     n_replicas = _replicated(all_rows)
 
-    command = reproduce_command(quick, dim, n_replicas)
+    command = reproduce_command(quick, dim, n_replicas, overrides)
     if dim == 3:
         model = (f"3D (particles are spheres; {'the half model y ≥ 0, y = 0 a symmetry plane' if base.mesh.symmetry else 'the full model'}), "
                  f"mesh size {base.mesh.size:g} mm (quadratic tetrahedra)")
@@ -278,6 +280,9 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
           f"T = {base.stimulus.temperature:g} K, d = {base.particle_diameter:g} mm, "
           f"{'frictionless' if base.friction == 0 else f'friction {base.friction:g}'}), {model}.",
           ]
+    if overrides:
+        L.append(f"- Model choices changed from the defaults for every point: {', '.join(f'`{o}`' for o in overrides)} "
+                 "(a study of its own, beside the default's: docs/reproduce.md, \"Sensitivity\").")
     if n_replicas > 1:
         L.append(f"- Replicas: {n_replicas} per point (`--replicas {n_replicas}`), each with its particle centres "
                  f"jittered by up to {base.replicas.jitter:g} × the clearance from seed {base.replicas.seed} "
@@ -323,6 +328,10 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
                 L += [f"![{what}: {sw.label}]({name})", ""]
             else:
                 L += [f"*{what} figure not written ({name}).*", ""]
+        for state in (states or {}) if len(states or {}) > 1 else ():
+            name = state_figure_name(sw, state)
+            if (out / name).is_file():
+                L += [f"![Deformed shapes, one run in the state {state} a point: {sw.label}]({name})", ""]
         L += (_points_table(rows, sw) if rows else [f"*No points of this sweep in the table: not run ({rerun} adds it).*"]) + [""]
     L += ["## The paper's statements and hydrojam", ""]
     L += ["| # | paper (Fig.) | hydrojam computed | verdict | why (for disagree) |", "|---|---|---|---|---|"]

@@ -20,7 +20,7 @@ from hydrojam.paper.claims import check_claims
 from hydrojam.paper.compare import read_2d_results
 from hydrojam.paper.figures import write_figures
 from hydrojam.paper.report import write_report
-from hydrojam.paper.sections import check_page, results_lines, verdict_lines, write_sections
+from hydrojam.paper.sections import check_page, results_lines, run_commits, time_lines, verdict_lines, write_sections
 from hydrojam.paper.study import paper_study
 from hydrojam.study.sweep import PointOutcome, run_sweep
 from hydrojam.study.table import SweepTable, state_tables
@@ -34,7 +34,8 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
               replicas: int = 1, dimension: int = 2,
               compare_2d: str | os.PathLike | None = None, on_running=None,
               report_only: bool = False,
-              results_pages: Sequence[str | os.PathLike] = ()) -> tuple[SweepTable, Path]:
+              results_pages: Sequence[str | os.PathLike] = (),
+              overrides: Sequence[str] = ()) -> tuple[SweepTable, Path]:
     """Run the Section IV study into ``out``, write its figures and report.
 
     The study runs with :func:`hydrojam.study.sweep.run_sweep`; the figures go into
@@ -64,6 +65,9 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
     results_pages : sequence of str or os.PathLike, optional
         Markdown pages whose sections of this study (:mod:`hydrojam.paper.sections`) take its
         results table and verdicts, written after the report.
+    overrides : sequence of str, optional
+        Model choices changed for every point ("friction=0.1", as ``--set``): a study of its own
+        (:func:`hydrojam.paper.study.study_name`), for its own output folder.
 
     Returns
     -------
@@ -86,7 +90,7 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
     """
     out = Path(out)
     t0 = time.perf_counter()
-    study = paper_study(quick, sweeps, replicas, dimension)
+    study = paper_study(quick, sweeps, replicas, dimension, overrides)
     if compare_2d is not None and dimension != 3:
         raise ValueError("compare_2d: only with dimension 3 (it compares a 3D study with a 2D one)")
     table_2d = read_2d_results(compare_2d, quick) if compare_2d is not None else None
@@ -102,15 +106,17 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
 
     table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=point_done, on_running=on_running,
                       run=not report_only)
-    write_figures(out, table)
     states = state_tables(study, out)
+    write_figures(out, table, states)
     report = write_report(out, table, quick, time.perf_counter() - t0, workers=workers, scheduler=scheduler,
                           base=study.base, compare_2d=table_2d, compare_source=compare_2d,
                           computed=None if report_only else len(computed), ran=not report_only,
-                          states=states)
+                          states=states, overrides=overrides)
     if results_pages:
         results = check_claims(table, dimension)
-        lines = results_lines(table, study.base, quick, replicas, workers, states, results)
+        commits = run_commits(study, out)
+        lines = results_lines(table, study.base, quick, replicas, workers, states, results, commits, overrides)
+        cost = time_lines(table, study.base, quick, replicas, workers, commits, overrides)
         for page in results_pages:
-            write_sections(page, study.name, lines, verdict_lines(results, study.name))
+            write_sections(page, study.name, lines, verdict_lines(results, study.name), cost)
     return table, report

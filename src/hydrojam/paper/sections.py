@@ -2,17 +2,20 @@
 and the README are the command's output, not copies.
 
 A page holds a section between ``<!-- reproduce: NAME -->`` and ``<!-- /reproduce: NAME -->``,
-NAME the study's name (``paper-quick``, ``paper-3d-quick``, ...) for the table of its points, or
-the name followed by `` verdicts`` for the count of its verdicts. :func:`write_sections` replaces
-every such section of the study on a page with a line of conditions (command, commit, mesh, runs
-a point, friction, workers) and the table, and leaves the rest of the page as it was.
+NAME the study's name (``paper-quick``, ``paper-3d-quick``, ...) for the table of its points, the
+name followed by `` verdicts`` for the count of its verdicts, or by `` time`` for what its runs
+cost. :func:`write_sections` replaces every such section of the study on a page (the table with a
+line of conditions: command, commits, mesh, runs a point, friction, workers) and leaves the rest
+of the page as it was.
 Units: K, mm, degrees, minutes.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 from hydrojam._io import write_text_atomic
@@ -23,7 +26,11 @@ from hydrojam.paper.claims import ClaimResult, Verdict
 from hydrojam.paper.study import paper_sweeps, reproduce_command, study_name
 from hydrojam.study.cache import PointStatus
 
-__all__ = ["SectionError", "check_page", "results_lines", "verdict_lines", "write_sections"]
+__all__ = ["SECTION_KINDS", "SectionError", "check_page", "results_lines", "run_commits", "time_lines", "verdict_lines",
+           "write_sections"]
+
+#: the sections a study can write on a page: "" (its points), " verdicts", " time"
+SECTION_KINDS = ("", " verdicts", " time")
 
 
 class SectionError(ValueError):
@@ -38,19 +45,37 @@ def _end(name: str) -> str:
     return f"<!-- /reproduce: {name} -->"
 
 
-def conditions_line(base: Design, quick: bool, replicas: int, workers: int | None, runs: tuple[int, int]) -> str:
-    """One line of conditions: the command, the code's commit, mesh, runs a point, friction,
-    workers, and how many of the study's runs have finished."""
+def conditions_line(base: Design, quick: bool, replicas: int, workers: int | None, runs: tuple[int, int],
+                    run_commits: tuple[str, ...] = (), overrides: Sequence[str] = ()) -> str:
+    """One line of conditions: the command, the commits of the code that computed the runs (else
+    the code writing the table), mesh, runs a point, friction, workers, and how many of the
+    study's runs have finished."""
     src = source_provenance()
-    commit = str(src.get("commit") or "unknown")[:7] + (" (with local changes)" if src.get("dirty") is True else "")
+    commit = ", ".join(f"`{c[:7]}`" for c in run_commits) if run_commits else \
+        f"`{str(src.get('commit') or 'unknown')[:7]}`" + (" (with local changes)" if src.get("dirty") is True else "")
     dim = base.dimension
     model = "3D half model" if dim == 3 and base.mesh.symmetry else ("3D" if dim == 3 else "2D plane strain")
     friction = "frictionless" if base.friction == 0 else f"friction {base.friction:g}"
     who = f"{workers} workers" if workers else "one worker per CPU"
-    return (f"Conditions: `{reproduce_command(quick, dim, replicas)}`, code of `{commit}`, {model}, mesh "
+    return (f"Conditions: `{reproduce_command(quick, dim, replicas, overrides)}`, runs computed by the code of {commit}, {model}, mesh "
             f"{base.mesh.size:g} mm, {replicas} run{'s' if replicas != 1 else ''} a point, {friction}, {who} on "
             f"{os.cpu_count()} cores; {runs[0]} of {runs[1]} runs finished. θ, δx, δz: mean ± standard deviation "
             "over the runs that converged; the states as in docs/replicas.md.")
+
+
+def run_commits(study, out: str | os.PathLike) -> tuple[str, ...]:
+    """The commits of the code that computed the finished runs of ``study`` in ``out``, sorted:
+    read from each run's metrics.json (``provenance.source.commit``), those without one left out."""
+    commits = set()
+    for key in {p.key for p in study.points()}:
+        try:
+            data = json.loads((Path(out) / "points" / key / "metrics.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        commit = ((data.get("provenance") or {}).get("source") or {}).get("commit")
+        if isinstance(commit, str) and re.fullmatch(r"[0-9a-f]{7,40}", commit):
+            commits.add(commit)
+    return tuple(sorted(commits))
 
 
 def _state_cell(row: dict, states: dict) -> str:
@@ -68,7 +93,8 @@ def _state_cell(row: dict, states: dict) -> str:
 
 
 def results_lines(table, base: Design, quick: bool, replicas: int, workers: int | None, states: dict,
-                  results: list[ClaimResult]) -> list[str]:
+                  results: list[ClaimResult], run_commits: tuple[str, ...] = (),
+                  overrides: Sequence[str] = ()) -> list[str]:
     """The table of a study's points (Markdown) with its conditions line and its verdicts.
 
     Parameters
@@ -87,6 +113,10 @@ def results_lines(table, base: Design, quick: bool, replicas: int, workers: int 
         State -> the table of its runs alone (:func:`hydrojam.study.table.state_tables`).
     results : list of ClaimResult
         The claims checked on ``table``.
+    run_commits : tuple of str, optional
+        The commits of the code that computed the finished runs (their metrics' provenance).
+    overrides : sequence of str, optional
+        The study's model choices (``--set``).
 
     Returns
     -------
@@ -100,7 +130,8 @@ def results_lines(table, base: Design, quick: bool, replicas: int, workers: int 
     for r in rows:
         ran = point_status(r) in (PointStatus.OK, PointStatus.NOT_CONVERGED)
         finished[r.get("key")] = int(number(r.get("replicas_used")) or 0) if replicas > 1 else int(ran)
-    L = [conditions_line(base, quick, replicas, workers, (sum(finished.values()), len(dirs))), "",
+    L = [conditions_line(base, quick, replicas, workers, (sum(finished.values()), len(dirs)), run_commits,
+                         overrides), "",
          "| sweep | point | θ [deg] | δx [mm] | δz [mm] | curling index | runs | states (runs: θ [deg]) | "
          "Newton iterations (mean) | compute [min] |",
          "|---|---:|---:|---:|---:|---:|---:|---|---:|---:|"]
@@ -118,8 +149,63 @@ def results_lines(table, base: Design, quick: bool, replicas: int, workers: int 
                      f"{cell_pm(r, 'tip_dz_mm')} | {cell_pm(r, 'curling_index', '{:.2f}')} | {used} | "
                      f"{_state_cell(r, states)} | {cell(r.get('newton_iterations'), '{:.0f}')} | "
                      f"{'' if wall is None else f'{wall / 60:.1f}'} |")
-    L += [""] + verdict_lines(results, study_name(quick, dim))
+    L += [""] + verdict_lines(results, study_name(quick, dim, overrides))
     return L
+
+
+def time_lines(table, base: Design, quick: bool, replicas: int, workers: int | None,
+               run_commits: tuple[str, ...] = (), overrides: Sequence[str] = ()) -> list[str]:
+    """What a study's finished runs cost, as a one-row Markdown table: runs finished, Newton
+    iterations a run (the range of the points' means, and the mean), compute a run and in all.
+
+    Parameters
+    ----------
+    table : SweepTable
+        The study's results.
+    base : Design
+        The study's base design.
+    quick : bool
+        The quick study.
+    replicas : int
+        Runs a point.
+    workers : int or None
+        Local workers.
+    run_commits : tuple of str, optional
+        The commits of the code that computed the runs.
+    overrides : sequence of str, optional
+        The study's model choices (``--set``).
+
+    Returns
+    -------
+    list of str
+    """
+    rows = {}
+    for sw in paper_sweeps(base.dimension):
+        for r in rows_of(table, sw.name):
+            rows.setdefault(r.get("key"), r)
+    runs = iters = 0.0
+    compute = 0.0
+    means = []
+    for r in rows.values():
+        n = number(r.get("replicas_used")) if replicas > 1 else float(
+            point_status(r) in (PointStatus.OK, PointStatus.NOT_CONVERGED))
+        it, wall = number(r.get("newton_iterations")), number(r.get("wall_time_s"))
+        if not n or it is None:
+            continue
+        runs += n
+        iters += it * n
+        compute += wall or 0.0
+        means.append(it)
+    commit = ", ".join(f"`{c[:7]}`" for c in run_commits) or "—"
+    span = f"{min(means):.0f}-{max(means):.0f} (mean {iters / runs:.0f})" if means else "—"
+    per_run = f"{compute / runs / 60:.1f} min" if runs else "—"
+    who = f"{workers} workers" if workers else "one worker per CPU"
+    return [f"| study | runs finished | Newton iterations a run | compute a run | compute in all | conditions |",
+            "|---|---:|---|---:|---:|---|",
+            f"| `{reproduce_command(quick, base.dimension, replicas, overrides)}` | {runs:.0f} of "
+            f"{sum(int(number(r.get('replicas')) or 1) for r in rows.values())} | {span} | {per_run} | "
+            f"{compute / 3600:.1f} h | mesh {base.mesh.size:g} mm, {who} of one thread on {os.cpu_count()} cores, "
+            f"code {commit} |"]
 
 
 def verdict_lines(results: list[ClaimResult], name: str) -> list[str]:
@@ -139,16 +225,17 @@ def check_page(page: str | os.PathLike, name: str) -> None:
         text = path.read_text(encoding="utf-8")
     except OSError as err:
         raise SectionError(f"{path}: cannot be read ({err.strerror or err})") from None
-    if _begin(name) not in text and _begin(f"{name} verdicts") not in text:
-        raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts') "
-                           "to write the results into")
+    if not any(_begin(name + kind) in text for kind in SECTION_KINDS):
+        raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts', "
+                           f"'{name} time') to write the results into")
     if not os.access(path.parent, os.W_OK) or not os.access(path, os.W_OK):
         raise SectionError(f"{path}: cannot be written (permission denied)")
 
 
-def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], verdicts: list[str]) -> list[str]:
+def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], verdicts: list[str],
+                   time: list[str] | None = None) -> list[str]:
     """Replace the sections of study ``name`` on ``page`` (atomically): ``NAME`` gets
-    ``table_lines``, ``NAME verdicts`` gets ``verdicts``.
+    ``table_lines``, ``NAME verdicts`` gets ``verdicts``, ``NAME time`` gets ``time``.
 
     Parameters
     ----------
@@ -158,6 +245,8 @@ def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], v
         The study's name.
     table_lines, verdicts : list of str
         The sections' new contents.
+    time : list of str, optional
+        The cost section's (:func:`time_lines`).
 
     Returns
     -------
@@ -175,14 +264,14 @@ def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], v
     except OSError as err:
         raise SectionError(f"{path}: cannot be read ({err.strerror or err})") from None
     written = []
-    for section, lines in ((name, table_lines), (f"{name} verdicts", verdicts)):
+    for section, lines in ((name, table_lines), (f"{name} verdicts", verdicts), (f"{name} time", time or [])):
         pattern = re.compile(re.escape(_begin(section)) + r"\n.*?" + re.escape(_end(section)), re.S)
         if pattern.search(text):
             body = "\n".join([_begin(section), *lines, _end(section)])
             text = pattern.sub(lambda _: body, text)
             written.append(section)
     if not written:
-        raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts') "
-                           "to write the results into")
+        raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts', "
+                           f"'{name} time') to write the results into")
     write_text_atomic(path, text)
     return written

@@ -35,6 +35,7 @@ __all__ = [
     "paper_sweeps",
     "reproduce_command",
     "study_kind",
+    "variant_name",
     "study_name",
     "sweep_of_field",
 ]
@@ -133,10 +134,22 @@ def _check_dimension(dimension) -> int:
     return int(dimension)
 
 
-def study_name(quick: bool = False, dimension: int = 2) -> str:
+#: what separates a study's kind from its model choices in its name ("paper-3d-quick--friction_0_1")
+VARIANT_SEPARATOR = "--"
+
+
+def variant_name(overrides: Sequence[str] = ()) -> str:
+    """The model choices ``overrides`` ("friction=0.1") as a name ("friction_0_1"; "" for none):
+    every character other than a letter, digit, "_" or "-" becomes "_"."""
+    return "--".join("".join(c if c.isascii() and (c.isalnum() or c in "_-") else "_" for c in o.strip())
+                     for o in overrides)
+
+
+def study_name(quick: bool = False, dimension: int = 2, overrides: Sequence[str] = ()) -> str:
     """The paper study's name, also the one ``OUT/study.toml`` records.
 
-    Two kinds never share an output folder (the sweep refuses an OUT holding another name).
+    Two kinds never share an output folder (the sweep refuses an OUT holding another name), nor
+    does a study run under other model choices (``overrides``) share one with the default's.
 
     Parameters
     ----------
@@ -144,38 +157,48 @@ def study_name(quick: bool = False, dimension: int = 2) -> str:
         The quick subset.
     dimension : {2, 3}, optional
         The study's dimension.
+    overrides : sequence of str, optional
+        Model choices changed for every point ("friction=0.1", as ``--set`` takes them).
 
     Returns
     -------
     str
-        "paper", "paper-quick" (2D), "paper-3d" or "paper-3d-quick" (3D).
+        "paper", "paper-quick" (2D), "paper-3d" or "paper-3d-quick" (3D), followed with
+        overrides by "--" and :func:`variant_name` ("paper-3d-quick--friction_0_1").
 
     Raises
     ------
     ValueError
         For another dimension.
     """
-    return "paper" + ("-3d" if _check_dimension(dimension) == 3 else "") + ("-quick" if quick else "")
+    name = "paper" + ("-3d" if _check_dimension(dimension) == 3 else "") + ("-quick" if quick else "")
+    return name + (VARIANT_SEPARATOR + variant_name(overrides) if overrides else "")
 
 
-def reproduce_command(quick: bool = False, dimension: int = 2, replicas: int = 1) -> str:
+def reproduce_command(quick: bool = False, dimension: int = 2, replicas: int = 1,
+                      overrides: Sequence[str] = ()) -> str:
     """The command line of the study of that kind ("hydrojam reproduce --dimension 3 --quick
-    --replicas 4"), without its output folder: what the reports and `hydrojam status` print."""
+    --replicas 4 --set friction=0.1"), without its output folder: what the reports and
+    `hydrojam status` print."""
     return (f"hydrojam reproduce{' --dimension 3' if _check_dimension(dimension) == 3 else ''}"
-            f"{' --quick' if quick else ''}{f' --replicas {replicas}' if replicas > 1 else ''}")
+            f"{' --quick' if quick else ''}{f' --replicas {replicas}' if replicas > 1 else ''}"
+            + "".join(f" --set {o}" for o in overrides))
 
 
 def study_kind(name: str) -> tuple[bool, int] | None:
-    """(quick, dimension) of a paper study's name (:func:`study_name`), or None for another study."""
+    """(quick, dimension) of a paper study's name (:func:`study_name`, with or without model
+    choices), or None for another study."""
+    kind = name.split(VARIANT_SEPARATOR, 1)[0]
     for quick in (False, True):
         for dimension in DIMENSIONS:
-            if study_name(quick, dimension) == name:
+            if study_name(quick, dimension) == kind:
                 return quick, dimension
     return None
 
 
-def paper_base(quick: bool = False, replicas: int = 1, dimension: int = 2) -> Design:
-    """The base design of every sweep: the default (PL 5, h 8 mm, 275 K, 2D).
+def paper_base(quick: bool = False, replicas: int = 1, dimension: int = 2, overrides: Sequence[str] = ()) -> Design:
+    """The base design of every sweep: the default (PL 5, h 8 mm, 275 K, 2D), with the model
+    choices ``overrides`` changed.
 
     Parameters
     ----------
@@ -185,6 +208,8 @@ def paper_base(quick: bool = False, replicas: int = 1, dimension: int = 2) -> De
         Replicas per point (``replicas.count``).
     dimension : {2, 3}, optional
         3: the same design with spheres (the half model, the design's default).
+    overrides : sequence of str, optional
+        Design fields changed ("friction=0.1", "membrane.shear_modulus=0.046"), as ``--set``.
 
     Returns
     -------
@@ -193,13 +218,15 @@ def paper_base(quick: bool = False, replicas: int = 1, dimension: int = 2) -> De
     Raises
     ------
     ValueError
-        For another dimension.
+        For another dimension; DesignError (a ValueError) for a bad override.
     """
     base = default_design()
     if _check_dimension(dimension) == 3:
         base = apply_overrides(base, ["dimension=3"])
     if quick:
         base = apply_overrides(base, [f"mesh.size={QUICK_MESH_SIZE!r}"])
+    if overrides:
+        base = apply_overrides(base, list(overrides))
     return with_replicas(base, replicas) if replicas != 1 else base
 
 
@@ -210,7 +237,7 @@ def paper_points(quick: bool = False, dimension: int = 2) -> dict[str, dict[str,
 
 
 def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None, replicas: int = 1,
-                dimension: int = 2) -> Study:
+                dimension: int = 2, overrides: Sequence[str] = ()) -> Study:
     """The Section IV study as a :class:`hydrojam.study.spec.Study` named :func:`study_name`.
 
     Sweeps "temperature", "particle_layers", "strain_limit_thickness" and, in 3D,
@@ -230,6 +257,9 @@ def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None, replic
         Runs per point.
     dimension : {2, 3}, optional
         The study's dimension.
+    overrides : sequence of str, optional
+        Model choices changed for every point (``--set``): the study is then one of its own,
+        named by them (:func:`study_name`), to be run into its own folder.
 
     Returns
     -------
@@ -240,10 +270,10 @@ def paper_study(quick: bool = False, sweeps: Sequence[str] | None = None, replic
     ValueError
         Naming the allowed ones, for an unknown sweep name or dimension.
     """
-    name = study_name(quick, dimension)
+    name = study_name(quick, dimension, overrides)
     points = paper_points(quick, dimension)
     unknown = [s for s in (sweeps or ()) if s not in points]
     if unknown:
         raise ValueError(f"unknown sweep {', '.join(map(repr, unknown))}; allowed: {', '.join(points)}")
     sweeps = [SweepSpec(name=sweep, vary=vary) for sweep, vary in points.items() if sweeps is None or sweep in sweeps]
-    return Study(name=name, base=paper_base(quick, replicas, dimension), sweeps=sweeps)
+    return Study(name=name, base=paper_base(quick, replicas, dimension, overrides), sweeps=sweeps)

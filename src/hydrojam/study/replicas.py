@@ -34,6 +34,7 @@ from hydrojam.actuator.metrics import STATE_METRICS, metric
 from hydrojam.study.cache import PointStatus
 from hydrojam.study.spec import Study, SweepSpec
 from hydrojam.study.spread import Spread, spread
+from hydrojam.study.states import state_counts, states_text
 from hydrojam.study.sweep import PointOutcome, run_point, run_sweep
 from hydrojam.study.table import SweepTable, replica_table
 
@@ -100,6 +101,16 @@ class ReplicaSummary:
         return [r["replica"] for r in self.runs if r.get("status") == PointStatus.OK]
 
     @property
+    def states(self) -> dict[str, int]:
+        """How many finished runs reached each state (:mod:`hydrojam.study.states`)."""
+        return state_counts([r.get("states") for r in self.runs])
+
+    @property
+    def states_text(self) -> str | None:
+        """The runs by state in words ("arc 1; folded 3", one state: its name), None unclassified."""
+        return states_text(self.states)
+
+    @property
     def compute_time_s(self) -> float:
         """The replicas' wall times summed [s]."""
         return math.fsum(r.get("wall_time_s") or 0.0 for r in self.runs)
@@ -117,13 +128,16 @@ class ReplicaSummary:
         return buf.getvalue()
 
     def to_json(self) -> dict:
-        """Plain data: the replica settings, the wall and compute times, every run (replica, key,
-        status, error, folder) and every metric's statistics (:meth:`Spread.as_dict`)."""
+        """Plain data: the replica settings, the wall and compute times, the runs by state, every
+        run (replica, key, status, error, folder, state) and every metric's statistics
+        (:meth:`Spread.as_dict`)."""
         spec = self.design.replicas
         return finite_or_none({
             "replicas": self.count, "seed": spec.seed, "jitter": spec.jitter, "used": self.used,
             "wall_time_s": self.wall_time_s, "compute_time_s": self.compute_time_s,
-            "runs": [{k: r.get(k) for k in ("replica", "key", "status", "error", "point_dir")} for r in self.runs],
+            "states": self.states,
+            "runs": [{**{k: r.get(k) for k in ("replica", "key", "status", "error", "point_dir")}, "state": r.get("states")}
+                     for r in self.runs],
             "metrics": {name: {"unit": metric(name).unit, **sp.as_dict()} for name, sp in self.stats.items()},
         })
 

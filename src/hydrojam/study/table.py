@@ -224,7 +224,7 @@ def build_table(study: Study, records: dict[str, dict], state: str | None = None
         row = _point_row(p, varied)
         row.update(_aggregate(recs, [q.replica for q in points], replicated))
         row["states"] = states_text(counts)
-        row["point_dir"] = f"points/{p.key}"
+        row["point_dir"] = f"points/{points[0].key}"  # with ``state``: its first replica in that state
         if replicated:
             row["replica_dirs"] = ";".join(f"points/{q.key}" for q in points)
         rows.append(row)
