@@ -15,6 +15,7 @@ import pytest
 from hydrojam.actuator.design import DesignError, default_design, design_from_dict, design_to_toml
 from hydrojam.actuator.metrics import face_rotation_matrix, swing_twist_deg
 from hydrojam.study.spec import design_key
+from undeformed import assert_nothing_moved
 
 #: a second gel: PNIPAM's chi(T) shifted 10 K down (A0 + B0 dT, A1 + B1 dT), an illustrative gel
 #: whose transition is 10 K lower than PNIPAM's (docs/chambers.md)
@@ -74,7 +75,10 @@ def test_chambers_resolve_from_the_design_and_round_trip():
         ({"chambers": [{}, {"hydrogel": {"A0": float("nan")}}]}, ["chambers.1.hydrogel.A0", "finite"]),
         ({"chambers": [{}, {"colour": 1}]}, ["chambers.1.colour: unknown key"]),
         ({"strain_limit_position": "top"}, ["strain_limit_position", "'-x'", "'middle'"]),
-        ({"dimension": 3}, ["chambers: only with dimension = 2"]),
+        ({"dimension": 3, "chambers": [{}, {}, {}]}, ["chambers: 3D takes 2 chambers", "not yet simulated"]),
+        ({"dimension": 3, "chambers": [{}, {"particle_diameter": 20.0}], "cavity_depth": 17.0},
+         ["cavity_depth: chamber 1's particles do not fit", ">= 20.2 mm"]),
+        ({"dimension": 3, "strain_limit_width": 8.0}, ["strain_limit_width: not with chambers"]),
         ({"stimulus": {"schedule": [[0, 300], [60, 275]]}}, ["stimulus.schedule: not with chambers"]),
     ],
 )
@@ -134,6 +138,39 @@ def test_two_chamber_geometry(where, groups):
     assert np.all(np.abs(line[:, 0]) < 1e-9 * L)
     assert line[0, 1] == pytest.approx(0.0, abs=1e-9 * L) and line[-1, 1] == pytest.approx(-L)
     assert np.all(np.diff(line[:, 1]) < 0)
+
+
+@pytest.mark.parametrize("where", ["-x", "middle"])
+def test_two_chamber_geometry_in_3d(where):
+    """The 3D half model: walls and strain-limit layer of the volumes the layout gives (the half
+    y >= 0), the cut faces on y = 0, and the shared wall's mid-line on y = 0 a line of nodes."""
+    from hydrojam.actuator.geometry import actuator_3d_chambers, chamber_layout
+    from hydrojam.actuator.model import _centreline
+    from hydrojam.fem.assembly import Block, Solid
+    from hydrojam.fem.elements import element_for_meshio_type
+    from hydrojam.materials.energies import NeoHookean
+
+    d = design_from_dict({**TWO, "dimension": 3, "particle_layers": 1, "strain_limit_position": where}).resolved()
+    mesh = actuator_3d_chambers(d)
+    el = element_for_meshio_type(mesh.cell_type)
+    mat = NeoHookean(shear_modulus=1.0, poisson_ratio=0.3)
+
+    def volume(name):
+        return float(Solid(mesh.points, [Block(mesh.cells[mesh.cell_groups[name]], el, mat, name)])
+                     .current_volumes(mesh.points)[name].sum())
+
+    L, h, wall = d.length, d.strain_limit_thickness, d.resolved_chamber_wall
+    depth = d.resolved_cavity_depth / 2 + d.side_wall_thickness  # the half y >= 0
+    cavities = sum(x1 - x0 for x0, x1 in chamber_layout(d)) * d.resolved_cavity_length * d.resolved_cavity_depth / 2
+    outer = (d.width - (h if where == "-x" else 0.0)) * L * depth
+    sll = (h if where == "-x" else wall) * L * depth
+    tol = 1e-9 * d.width * L * depth  # flat-faced cells: exact to round-off
+    assert volume("membrane") == pytest.approx(outer - cavities - (sll if where == "middle" else 0.0), abs=tol)
+    assert volume("strain_limit_layer") == pytest.approx(sll, abs=tol)
+    assert np.all(np.abs(mesh.points[mesh.group_nodes("symmetry"), 1]) < 1e-9 * L)
+    line = mesh.points[_centreline(mesh, d)]
+    assert np.all(np.abs(line[:, :2]) < 1e-9 * L)
+    assert line[-1, 2] == pytest.approx(-L)
 
 
 # ------------------------------------------------------------------------------------------------ metrics
@@ -210,3 +247,21 @@ def test_two_chambers_bend_by_symmetry():
     assert angle["AB"] < -5.0  # toward +x, away from the swollen PNIPAM chamber on -x
     assert abs(angle["AB"] + angle["BA"]) <= tol, angle
     assert abs(angle["AA"]) <= tol, angle
+
+
+@pytest.mark.parametrize("dimension", [2, 3])
+def test_nothing_moves_at_the_as_prepared_stimulus(dimension):
+    """Two chambers of PNIPAM at their as-prepared stimulus (mu0, T0): stress-free and contact-free,
+    so no node moves (the bound of tests/actuator/undeformed.py) and the free end neither swings
+    nor twists."""
+    from hydrojam.actuator.model import build_model
+    from hydrojam.actuator.simulate import simulate
+
+    gel = default_design().hydrogel
+    model = build_model(design_from_dict({**TWO, "dimension": dimension, "particle_layers": 1,
+                                          "chambers": [{}, {}], "stimulus": {"mu": gel.mu0, "temperature": gel.T0}}))
+    res = simulate(model)
+    drift = assert_nothing_moved(model, res)
+    m = res.metrics
+    assert m["bending_plane_deg"] is None and abs(m["twist_deg"]) < math.degrees(2 * drift / model.design.width)
+    assert abs(m["tip_dy_mm"]) < drift

@@ -412,7 +412,7 @@ class Design(BaseModel):
     )
     chambers: tuple[ChamberSpec, ...] | None = Field(
         None,
-        description="2D: two chambers side by side along x ([[chambers]] tables, the first on the -x side), "
+        description="two chambers side by side along x ([[chambers]] tables, the first on the -x side), "
         "each with its particles, gel and temperature; omitted: one chamber (docs/chambers.md)",
     )
 
@@ -476,9 +476,12 @@ class Design(BaseModel):
 
     @property
     def resolved_cavity_depth(self) -> float:
-        """Cavity depth along y [mm], given or derived (used in 3D only)."""
+        """Cavity depth along y [mm], given or derived (used in 3D only; with chambers: the largest
+        chamber's particle diameter + 2 c)."""
         if self.cavity_depth is not None:
             return self.cavity_depth
+        if self.chambers is not None:
+            return max(ch.particle_diameter for ch in self.resolved_chambers) + 2.0 * self.clearance
         return self.particle_diameter + 2.0 * self.clearance
 
     @property
@@ -517,6 +520,8 @@ class Design(BaseModel):
             update = {"cavity_length": self.resolved_cavity_length, "chambers": self.resolved_chambers,
                       "chamber_wall_thickness": self.resolved_chamber_wall,
                       "strain_limit_position": self.resolved_strain_limit_position}
+            if self.dimension == 3:
+                update["cavity_depth"] = self.resolved_cavity_depth
         if self.dimension == 3:
             update["cavity_depth"] = self.resolved_cavity_depth
         if self.stimulus.schedule is not None:
@@ -541,10 +546,13 @@ class Design(BaseModel):
         n = len(self.chambers)
         if self.dimension == 2 and not n == MAX_CHAMBERS_2D:
             raise ValueError(f"chambers: 2D takes {MAX_CHAMBERS_2D} chambers side by side along x (three round the "
-                             f"axis need dimension = 3; got {n})")
-        if self.dimension == 3:
-            raise ValueError(f"chambers: only with dimension = 2 at present (two side by side along x; got "
-                             f"{n} chambers with dimension 3)")
+                             f"axis would need dimension = 3; got {n})")
+        if self.dimension == 3 and not n == 2:
+            raise ValueError(f"chambers: 3D takes 2 chambers side by side along x at present (three round the "
+                             f"axis are not yet simulated; got {n})")
+        if self.strain_limit_width is not None:
+            raise ValueError(f"strain_limit_width: not with chambers (the strain-limit layer spans its face; got "
+                             f"strain_limit_width {_g(self.strain_limit_width)} mm)")
         if self.cavity_width is not None:
             raise ValueError(f"cavity_width: not with chambers: each chamber sets its own cavity_width (got "
                              f"cavity_width {_g(self.cavity_width)} mm)")
@@ -553,6 +561,7 @@ class Design(BaseModel):
                              "(give each chamber its target temperature instead)")
         c, h = self.clearance, self.mesh.size
         length = self.resolved_cavity_length
+        depth = self.resolved_cavity_depth
         for k, ch in enumerate(self.resolved_chambers):
             d, m, pl = ch.particle_diameter, ch.particles_per_layer, ch.particle_layers
             where = f"chambers.{k}"
@@ -562,7 +571,10 @@ class Design(BaseModel):
             if h > d / 4.0:
                 raise ValueError(f"mesh.size: must be <= {where}.particle_diameter/4 = {_g(d / 4.0)} mm so that "
                                  f"about 12 quadratic edges or more go round a particle (got {_g(h)} mm)")
-            for name, count, size in (("cavity_width", m, ch.cavity_width), ("cavity_length", pl, length)):
+            fits = [("cavity_width", m, ch.cavity_width), ("cavity_length", pl, length)]
+            if self.dimension == 3:
+                fits.append(("cavity_depth", 1, depth))
+            for name, count, size in fits:
                 need = count * d + (count + 1) * c
                 if need > size * (1.0 + _REL_TOL):
                     field = f"{where}.{name}" if name == "cavity_width" else name
