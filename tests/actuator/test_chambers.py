@@ -265,3 +265,10 @@ def test_nothing_moves_at_the_as_prepared_stimulus(dimension):
     m = res.metrics
     assert m["bending_plane_deg"] is None and abs(m["twist_deg"]) < math.degrees(2 * drift / model.design.width)
     assert abs(m["tip_dy_mm"]) < drift
+
+
+def test_an_assessment_refuses_chambers():
+    from hydrojam.assess.assessment import check_assessable
+
+    with pytest.raises(DesignError, match="chambers: an assessment takes one chamber"):
+        check_assessable(design_from_dict(TWO))

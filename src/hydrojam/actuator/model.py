@@ -96,8 +96,8 @@ class ActuatorModel:
     gauges: Gauges  # what the state metrics read (actuator.metrics.measure)
     #: 3D half model: the nodes on the symmetry plane y = 0, held at u_y = 0 (None otherwise)
     symmetry_nodes: np.ndarray | None = None
-    #: multi-chamber designs: each chamber's gel and stimulus path (its own temperature), and the
-    #: name of the block holding its particles (:func:`particle_block`); empty for one chamber
+    #: multi-chamber designs: each chamber's gel and stimulus path (its own temperature), in the
+    #: order of the blocks of its particles (:func:`particle_block`); empty for one chamber
     chamber_gels: tuple[Hydrogel, ...] = ()
     chamber_paths: tuple[StimulusPath, ...] = ()
 
@@ -128,7 +128,8 @@ class ActuatorModel:
 
     def materials_at(self, s: float) -> dict[str, Material]:
         """Material of every block by name (MEMBRANE, STRAIN_LIMIT_LAYER, PARTICLES) at load
-        parameter s (the gel at the stimulus of s)."""
+        parameter s (the gel at the stimulus of s; with chambers each chamber's gel at its own
+        stimulus of s, and no STRAIN_LIMIT_LAYER where the design has none)."""
         if self.chamber_gels:  # each chamber's gel at its own stimulus; a design may have no strain-limit layer
             out = {MEMBRANE: self.membrane}
             if STRAIN_LIMIT_LAYER in self.solid.block_names:
