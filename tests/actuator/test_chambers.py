@@ -272,3 +272,21 @@ def test_an_assessment_refuses_chambers():
 
     with pytest.raises(DesignError, match="chambers: an assessment takes one chamber"):
         check_assessable(design_from_dict(TWO))
+
+
+def test_each_chamber_follows_its_own_path_to_its_own_temperature():
+    """Each chamber's gel starts at its own as-prepared stimulus (mu0 of its gel, T0) and ends at
+    (mu, its temperature): the first at stimulus.temperature, the second at its own."""
+    from hydrojam.actuator.model import PARTICLES, build_model, particle_block
+
+    model = build_model(design_from_dict({**TWO, "particle_layers": 1,
+                                          "chambers": [{}, {"hydrogel": SHIFTED, "temperature": 290.0}]}))
+    start, end = model.materials_at(0.0), model.materials_at(1.0)
+    first, second = PARTICLES, particle_block(1)
+    gels = model.design.resolved_chambers
+    for name, chamber, T in ((first, gels[0], 275.0), (second, gels[1], 290.0)):
+        assert start[name].T == pytest.approx(chamber.hydrogel.T0) and start[name].mu == pytest.approx(
+            start[name].params.mu0)
+        assert end[name].T == pytest.approx(T) and end[name].mu == 0.0
+    assert start[first].mu != pytest.approx(start[second].mu)  # two gels, two as-prepared potentials
+    assert "strain_limit_layer" not in start
