@@ -17,9 +17,10 @@ from hydrojam.actuator.metrics import face_rotation_matrix, swing_twist_deg
 from hydrojam.study.spec import design_key
 from undeformed import assert_nothing_moved
 
-#: a second gel: PNIPAM's chi(T) shifted 10 K down (A0 + B0 dT, A1 + B1 dT), an illustrative gel
-#: whose transition is 10 K lower than PNIPAM's (docs/chambers.md)
-SHIFTED = {"A0": -12.947 + 0.04496 * 10.0, "A1": 17.92 - 0.0569 * 10.0}
+#: a second gel: PNIPAM with every temperature 10 K lower (chi(T) = chi_PNIPAM(T + 10 K): A0 + 10 B0,
+#: A1 + 10 B1; prepared at T0 = 290 K), an illustrative gel whose transition is 10 K below
+#: PNIPAM's (docs/chambers.md)
+SHIFTED = {"A0": -12.947 + 0.04496 * 10.0, "A1": 17.92 - 0.0569 * 10.0, "T0": 290.0}
 
 TWO = {"particle_layers": 2, "strain_limit_position": "none", "mesh": {"size": 4.0},
        "chambers": [{}, {"hydrogel": SHIFTED}]}
@@ -288,5 +289,5 @@ def test_each_chamber_follows_its_own_path_to_its_own_temperature():
         assert start[name].T == pytest.approx(chamber.hydrogel.T0) and start[name].mu == pytest.approx(
             start[name].params.mu0)
         assert end[name].T == pytest.approx(T) and end[name].mu == 0.0
-    assert start[first].mu != pytest.approx(start[second].mu)  # two gels, two as-prepared potentials
+    assert start[second].T == 290.0 != start[first].T  # two gels, each prepared at its own T0
     assert "strain_limit_layer" not in start
