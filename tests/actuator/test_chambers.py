@@ -291,3 +291,19 @@ def test_each_chamber_follows_its_own_path_to_its_own_temperature():
         assert end[name].T == pytest.approx(T) and end[name].mu == 0.0
     assert start[second].T == 290.0 != start[first].T  # two gels, each prepared at its own T0
     assert "strain_limit_layer" not in start
+
+
+def test_the_bilateral_example_study_is_two_chambers_of_two_gels():
+    """examples/bilateral_study.toml (docs/chambers.md): every point two chambers, PNIPAM on -x and
+    the second gel (10 K colder, half the crosslinks) on +x, from 275 to 310 K."""
+    from pathlib import Path
+
+    from hydrojam.study.spec import load_study
+
+    study = load_study(Path(__file__).parents[2] / "examples" / "bilateral_study.toml")
+    points = study.points()
+    assert [p.design.stimulus.temperature for p in points] == [275, 280, 285, 290, 295, 300, 305, 310]
+    for p in points:
+        a, b = p.design.resolved_chambers
+        assert a.hydrogel == default_design().hydrogel
+        assert (b.hydrogel.T0, b.hydrogel.n) == (290.0, 0.005) and b.hydrogel.A0 == pytest.approx(SHIFTED["A0"])
