@@ -1,8 +1,8 @@
 """How far Newton's quadratic model holds along its own steps, term by term
-(``benchmarks/path.py --model-check N``), read from outside: it wraps
-:func:`hydrojam.fem.newton._line_search` and, at every N-th iteration, before the line search
-runs, evaluates each energy term along the direction d at a = 1/4, 1/2 and 1 of the step cap
-(the contact's CCD cap; 1 where nothing caps it):
+(``benchmarks/path.py --model-check N``): an observer of the solver's line searches
+(:class:`hydrojam.fem.solver.events.LineSearch`) that, at every N-th backtracking search,
+evaluates each energy term along the direction d from the iterate at a = 1/4, 1/2 and 1 of the
+step cap (the contact's CCD cap; 1 where nothing caps it):
 
 - ``deviation`` [mJ]: E_t(x + a d) - E_t(x) - (a g_t.d + a^2/2 d.H_t.d), with the term's exact
   gradient and Hessian at x, reported relative to the whole model's decrease |sum over the terms
@@ -29,7 +29,7 @@ import collections
 import numpy as np
 import scipy.sparse as sp
 
-import hydrojam.fem.newton as newton
+from hydrojam.fem import Observer
 
 FRACTIONS = (0.25, 0.5, 1.0)
 CONTACT_PIECES = ("barrier, pairs at x", "barrier, new pairs", "friction")
@@ -129,8 +129,9 @@ def pair_move(d0: float, d1: float) -> str:
     return "leaves dhat" if d1 >= 1.0 else ("closes" if d1 < d0 else "opens within dhat")
 
 
-class ModelCheck:
-    """Checks the quadratic model at every ``every``-th Newton iteration while installed."""
+class ModelCheck(Observer):
+    """Checks the quadratic model at every ``every``-th backtracking line search it observes (the
+    terms are evaluated at the search's iterate, which the search leaves as it was)."""
 
     def __init__(self, every: int = 5):
         if every < 1:
@@ -139,27 +140,16 @@ class ModelCheck:
         self.samples: list[tuple[dict, dict]] = []
         self.pairs: list[np.ndarray] = []
         self._calls = 0
-        self._saved = None
 
-    def install(self) -> None:
-        """Wrap newton's line search (undone by :meth:`uninstall`)."""
-        line_search = self._saved = newton._line_search
-
-        def checked(terms, x, E, step, slope, shape, alpha, options, *rest):
-            self._calls += 1
-            if self._calls % self.every == 0:
-                dev, models, pairs = term_deviations(terms, x, step, shape, alpha)
-                self.samples.append((dev, models))
-                self.pairs.append(pairs)
-            return line_search(terms, x, E, step, slope, shape, alpha, options, *rest)
-
-        newton._line_search = checked
-
-    def uninstall(self) -> None:
-        """Put newton's line search back."""
-        if self._saved is not None:
-            newton._line_search = self._saved
-            self._saved = None
+    def on_line_search(self, event) -> None:
+        if not event.searched:  # a full step judged by its residual: no search to check
+            return
+        self._calls += 1
+        if self._calls % self.every == 0:
+            x = np.asarray(event.x, dtype=float)
+            dev, models, pairs = term_deviations(event.terms, x.ravel(), np.ravel(event.step), x.shape, event.cap)
+            self.samples.append((dev, models))
+            self.pairs.append(pairs)
 
     def pieces(self) -> list[str]:
         """The names checked, terms first, then the contact's pieces."""

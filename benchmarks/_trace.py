@@ -1,9 +1,9 @@
-"""A per-iteration trace of Newton (``benchmarks/path.py --trace``), read from outside: it wraps
-the helpers of :func:`hydrojam.fem.newton.minimize` (the direction, the line search, the
-Marquardt update) and the linear solver, and records for every iteration
+"""A per-iteration trace of Newton (``benchmarks/path.py --trace``): an observer of the solver
+(:mod:`hydrojam.fem.solver.events`) that records for every iteration
 
 - ``step``: the accepted load steps before it (the iteration belongs to the next one; a
-  step's release rounds and its rejected attempts are counted in it too),
+  step's release rounds and its rejected attempts are counted in it too; the release of a
+  stabilisation at the end of a path in the last step),
 - ``residual`` [N] at the iterate, ``tolerance`` [N] (that of the minimisation it is in),
   ``tau`` (the Marquardt damping used, relative to diag|H|),
 - ``cap``: the step cap of the terms (contact CCD; 1 = none), ``alpha``: the accepted step length,
@@ -27,112 +27,50 @@ import csv
 
 import numpy as np
 
-import hydrojam.fem.newton as newton
-from hydrojam.fem.linsolve import LinearSolver, NotPositiveDefinite
+from hydrojam.fem import Observer
 
 FIELDS = ("step", "residual", "tolerance", "tau", "cap", "alpha", "trials", "dE", "step_max", "stabilisation", "pairs",
           "analysis", "solves", "negative", "substitutions", "projected", "curvature")
 
 
-class IterationTrace:
-    """Records every Newton iteration while installed (see the module docstring)."""
+class IterationTrace(Observer):
+    """Records every Newton iteration of the minimisations it observes (see the module docstring)."""
 
     def __init__(self):
         self.rows: list[dict] = []
         self._row: dict = {}
         self._steps = 0
-        self._saved = None
 
-    def step(self, s: float) -> None:
-        """An accepted state was reported (s = 0 included): later iterations belong to the next step."""
-        self._steps += 1 if s > 0 else 0
+    def on_step_accepted(self, event) -> None:
+        """An accepted state (s = 0 included): later iterations belong to the next step."""
+        self._steps += 1 if event.s > 0 else 0
 
-    def install(self) -> None:
-        """Wrap newton's helpers and the linear solver (undone by :meth:`uninstall`)."""
-        direction, line_search, update, solve, resolve, tolerance, curvature = (
-            newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
-            LinearSolver.resolve, newton._tolerance, newton._curvature_step)
-        self._saved = direction, line_search, update, solve, resolve, tolerance, curvature
+    def on_direction(self, event) -> None:
         row = self._row
-        last_tolerance = [float("nan")]
+        row.clear()
+        solves = [e for e in event.solves if e.call == "solve"]
+        first = solves[0] if solves else None
+        row.update(step=self._steps, residual=event.residual, tolerance=event.tolerance, tau=event.damping,
+                   projected=int(event.projected), trials=0, analysis=sum(e.analysed for e in event.solves),
+                   solves=len(solves), substitutions=len(event.solves) - len(solves),
+                   negative="" if first is None else (1 if first.refused else (
+                       "" if first.negative_eigenvalues is None else first.negative_eigenvalues)))
+        stab = next((t for t in event.terms if t.name == "stabilisation"), None)
+        row["stabilisation"] = 0.0 if stab is None else float(getattr(stab, "scale", 0.0))
+        contact = next((t for t in event.terms if t.name == "contact"), None)
+        inner = getattr(contact, "_term", contact)  # inside a TimedTerm (simulate's clocks)
+        if inner is not None and hasattr(inner, "_collisions"):
+            row["pairs"] = len(inner._collisions(event.x)[1])
 
-        def traced_tolerance(*args, **kwargs):
-            last_tolerance[0] = tolerance(*args, **kwargs)
-            return last_tolerance[0]
+    def on_line_search(self, event) -> None:
+        row = self._row
+        row["cap"], row["trials"], row["dE"] = event.cap, event.trials, event.energy_change
+        row["step_max"] = float(np.abs(event.alpha * event.step).max())
 
-        def traced_direction(terms, xs, hessians, Hff, hdiag, g, r, lm, *args, **kwargs):
-            row.clear()
-            row.update(step=self._steps, residual=r, tolerance=last_tolerance[0], analysis=0, trials=0, solves=0,
-                       substitutions=0)
-            stab = next((t for t in terms if t.name == "stabilisation"), None)
-            row["stabilisation"] = 0.0 if stab is None else float(getattr(stab, "scale", 0.0))
-            contact = next((t for t in terms if t.name == "contact"), None)
-            inner = getattr(contact, "_term", contact)  # inside a TimedTerm (simulate's clocks)
-            if inner is not None and hasattr(inner, "_collisions"):
-                row["pairs"] = len(inner._collisions(xs)[1])
-            out = direction(terms, xs, hessians, Hff, hdiag, g, r, lm, *args, **kwargs)
-            row["tau"], row["projected"] = out[2], int(out[3])
-            return out
-
-        def traced_line_search(terms, x, E, step, slope, shape, alpha, options, *rest):
-            row["cap"] = alpha
-            energy, trials = newton.sum_energy, [0]
-
-            def counted(*args):  # one trial of the line search: one energy evaluation
-                trials[0] += 1
-                return energy(*args)
-
-            newton.sum_energy = counted
-            try:
-                out = line_search(terms, x, E, step, slope, shape, alpha, options, *rest)
-            finally:
-                newton.sum_energy = energy
-            row["trials"] = trials[0]
-            row["dE"] = out[2] - E
-            row["step_max"] = float(np.abs(out[0] * step).max())
-            return out
-
-        def traced_curvature(terms, x, E, p, g, fidx, accepted, shape, options):
-            out = curvature(terms, x, E, p, g, fidx, accepted, shape, options)
-            row["curvature"] = newton.largest_move(out[0] - x, shape)
-            return out
-
-        def traced_update(lm, alpha, options):
-            row.setdefault("curvature", 0.0)
-            row.setdefault("cap", 1.0)
-            row["alpha"] = alpha
-            self.rows.append({k: row.get(k, "") for k in FIELDS})
-            return update(lm, alpha, options)
-
-        def traced_solve(solver, K, b, reach=None, definite=False):
-            before = solver.analyses
-            failed = False
-            try:
-                return solve(solver, K, b, reach, definite)
-            except NotPositiveDefinite:
-                failed = True
-                raise
-            finally:
-                row["analysis"] = row.get("analysis", 0) + (solver.analyses - before)
-                row["solves"] = row.get("solves", 0) + 1
-                if row["solves"] == 1:  # a failed Cholesky: at least one
-                    row["negative"] = 1 if failed else ("" if solver.negative_eigenvalues is None
-                                                        else solver.negative_eigenvalues)
-
-        def traced_resolve(solver, b, **kw):
-            row["substitutions"] = row.get("substitutions", 0) + 1
-            return resolve(solver, b, **kw)
-
-        newton._direction, newton._line_search, newton._marquardt_update, newton._tolerance, newton._curvature_step = (
-            traced_direction, traced_line_search, traced_update, traced_tolerance, traced_curvature)
-        LinearSolver.solve, LinearSolver.resolve = traced_solve, traced_resolve
-
-    def uninstall(self) -> None:
-        """Put newton's helpers and the linear solver back."""
-        if self._saved is not None:
-            (newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
-             LinearSolver.resolve, newton._tolerance, newton._curvature_step) = self._saved
-            self._saved = None
+    def on_iteration(self, event) -> None:
+        row = self._row
+        row["alpha"], row["curvature"] = event.alpha, event.curvature_move
+        self.rows.append({k: row.get(k, "") for k in FIELDS})
 
     def write(self, path: str) -> None:
         """The rows as CSV."""

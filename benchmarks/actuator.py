@@ -1,4 +1,4 @@
-"""What one actuator simulation costs: the default design (DESIGN.md section 6) from the
+"""What one actuator simulation costs: the default design (docs/actuator.md, "Design") from the
 as-prepared state to (0 kT, 275 K), end to end.
 
 Run:  .venv/bin/python benchmarks/actuator.py [--set key=value ...] [--quick] [--dimension 3]

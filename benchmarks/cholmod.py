@@ -46,7 +46,7 @@ from threadpoolctl import threadpool_limits
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cudss import _full, _load, refine  # noqa: E402
 
-from hydrojam.fem import linsolve  # noqa: E402
+from hydrojam.fem.solver import linsolve  # noqa: E402
 
 
 class _PardisoCholesky:

@@ -98,7 +98,7 @@ from hydrojam.fem import meshing as _gmsh  # noqa: E402
 from hydrojam.fem.assembly import Block, Solid  # noqa: E402
 from hydrojam.fem.contact import Contact, ContactSettings  # noqa: E402
 from hydrojam.fem.elements import element_for_meshio_type  # noqa: E402
-from hydrojam.fem.linsolve import LinearSolver  # noqa: E402
+from hydrojam.fem.solver.linsolve import LinearSolver  # noqa: E402
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean  # noqa: E402
 from hydrojam.fem.mesh import Mesh, merge  # noqa: E402
 from hydrojam.fem import Problem, Timings, fixed, solve_path  # noqa: E402

@@ -70,7 +70,7 @@ class Recorder:
         self._original = None
 
     def install(self) -> None:
-        from hydrojam.fem import linsolve
+        from hydrojam.fem.solver import linsolve
 
         self._original = original = linsolve._Pardiso.solve
         recorder = self
@@ -110,7 +110,7 @@ class Recorder:
         return self.pick is None or i in self.pick
 
     def uninstall(self) -> None:
-        from hydrojam.fem import linsolve
+        from hydrojam.fem.solver import linsolve
 
         linsolve._Pardiso.solve = self._original
 

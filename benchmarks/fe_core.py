@@ -71,7 +71,7 @@ from _common import (  # noqa: E402
 from hydrojam.fem import meshing as _gmsh  # noqa: E402
 from hydrojam.fem.assembly import Block, Solid  # noqa: E402
 from hydrojam.fem.elements import element_for_meshio_type  # noqa: E402
-from hydrojam.fem.linsolve import LinearSolver  # noqa: E402
+from hydrojam.fem.solver.linsolve import LinearSolver  # noqa: E402
 from hydrojam.materials.energies import Hydrogel, HydrogelParams  # noqa: E402
 from hydrojam.fem.mesh import Mesh  # noqa: E402
 from hydrojam.fem import Dirichlet, PathOptions, Problem, fixed, solve_path  # noqa: E402

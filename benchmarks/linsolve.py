@@ -56,7 +56,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import fmt, print_environment, print_load, section, table  # noqa: E402
 from hydrojam import build_model, default_design, simulate  # noqa: E402
 from hydrojam.actuator.design import apply_overrides  # noqa: E402
-from hydrojam.fem import linsolve  # noqa: E402
+from hydrojam.fem.solver import linsolve  # noqa: E402
 
 VARIANTS = {
     "MKL defaults": {},

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures
-import contextlib
 import dataclasses
 import functools
 import os
@@ -50,11 +49,10 @@ from _model_check import ModelCheck  # noqa: E402
 from _pieces import PieceTimer  # noqa: E402
 from _trace import IterationTrace  # noqa: E402
 
-import hydrojam.actuator.simulate as simulate_module  # noqa: E402
 from hydrojam.actuator.design import apply_overrides, default_design, with_replicas  # noqa: E402
 from hydrojam.actuator.model import build_model  # noqa: E402
-from hydrojam.fem.linsolve import LinearSolver  # noqa: E402
-from hydrojam.fem.path import ReleaseOptions  # noqa: E402
+from hydrojam.actuator.simulate import ACTUATOR_PATH, simulate  # noqa: E402
+from hydrojam.fem import LinearSolver, ReleaseOptions  # noqa: E402
 
 DESIGNS = {"one_layer": ["particle_layers=1"], "default": [],
            "near_prepared": ["particle_layers=1", "mesh.size=4", "stimulus.mu=-0.0343", "stimulus.temperature=300"],
@@ -75,26 +73,14 @@ VARIANTS = {
     "no_extrapolation": {"options": {"extrapolate": False}},
     "damped_from_start": {"options": {"damping_start": 1.0}},
     "no_stabilisation": {"stabilisation": 0.0},
-    "settle_every": {"options": {"settle": "every"}},
     "settle_never": {"options": {"settle": "never"}},
     "path_ds_0.1_0.2": {"options": {"ds0": 0.1, "ds_max": 0.2}},
     "path_ds_0.025": {"options": {"ds0": 0.025, "ds_max": 0.025}},
     "path_ds_0.2": {"options": {"ds0": 0.2, "ds_max": 0.2}},
-    # the Marquardt damping decays to 1e-12 of diag|H| before it drops to 0 (instead of 1e-6)
-    "lm_cutoff_1e-12": {"options": {"newton": {"marquardt_cutoff": 1e-12}}},
-    "lm_decay_3": {"options": {"newton": {"marquardt_decay": 3.0}}},
     # the full Hessian's step wherever it descends, a negative eigenvalue or not (no inertia correction)
     "indefinite": {"options": {"newton": {"definite": False}}},
-    # the contact Hessian projected from each iteration's first attempt / once a minimisation needed it
-    "projected_start": {"options": {"newton": {"fallback_start": "projected"}}},
-    "remembered_start": {"options": {"newton": {"fallback_start": "remembered"}}},
     # the full Hessian's K factorised first in every iteration
     "full_start": {"options": {"newton": {"fallback_start": "full"}}},
-    # the projected K factorised, then preconditioning conjugate gradients on the full K
-    "krylov": {"options": {"newton": {"fallback_start": "krylov"}}},
-    # the Marquardt damping decays after any step of length 0.5 or more, not only after full steps
-    "lm_long_0.5": {"options": {"newton": {"marquardt_long_step": 0.5}}},
-    "lm_long_0.25": {"options": {"newton": {"marquardt_long_step": 0.25}}},
     "rtol_1e-5": {"options": {"newton": {"rtol": 1e-5}}},
     # an undamped step that runs out of its 200 iterations is retried damped at once
     "undamped_1": {"options": {"undamped_blocks": 1}},
@@ -114,7 +100,7 @@ def _simulate_kwargs(variant: str) -> dict:
     kw.pop("solver", None)
     if "options" in kw:
         fields = dict(kw["options"])
-        base = simulate_module.ACTUATOR_PATH
+        base = ACTUATOR_PATH
         if isinstance(fields.get("newton"), dict):  # fields of the path's NewtonOptions
             fields["newton"] = dataclasses.replace(base.newton, **fields["newton"])
         kw["options"] = dataclasses.replace(base, **fields)
@@ -136,20 +122,16 @@ def label_of(seed: int | None, replica: int | None) -> str:
     return "-" if seed is None and replica is None else (f"r{replica}" if replica is not None else str(seed))
 
 
-@contextlib.contextmanager
-def instrumented(*instruments):
-    """The benchmark instruments (objects with ``install`` and ``uninstall``; None skipped)
-    installed in order and uninstalled in reverse: each wraps what the ones before it left, so
-    only the reverse order puts back the originals where two wrap the same function (the trace,
-    the model check and the piece timer all wrap Newton's line search)."""
-    active = [i for i in instruments if i is not None]
-    try:
-        for i in active:
-            i.install()
-        yield
-    finally:
-        for i in reversed(active):
-            i.uninstall()
+class _Steps:
+    """An observer of the load path that keeps every accepted step's record (its iterations,
+    release rounds, damping and failed attempts)."""
+
+    def __init__(self):
+        self.history = []
+
+    def on_step_accepted(self, event) -> None:
+        if event.record is not None:
+            self.history.append(event.record)
 
 
 def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tuple[str, ...] = (),
@@ -162,14 +144,6 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
     model = build_model(d)
     if seed is not None:
         model = jittered(model, seed)
-    original_path = simulate_module.solve_path
-    paths = []
-
-    def solve_path(*args, **kwargs):
-        paths.append(original_path(*args, **kwargs))
-        return paths[-1]
-
-    simulate_module.solve_path = solve_path
     solver_attrs = VARIANTS[variant].get("solver", {})  # LinearSolver class attributes, for this run
     saved_attrs = {k: getattr(LinearSolver, k) for k in solver_attrs}
     for k, v in solver_attrs.items():
@@ -177,27 +151,26 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
     tracer = IterationTrace() if trace else None
     checker = ModelCheck(model_check) if model_check else None
     timer = PieceTimer() if pieces else None
+    steps_seen = _Steps()
+    observers = [o for o in (steps_seen, tracer, checker, timer) if o is not None]
     try:
         t0 = time.perf_counter()
         calls = []
 
         def on_step(state):
             calls.append(state)
-            if tracer is not None:
-                tracer.step(state.s)
             if steps:  # live, for the long runs
                 print(f"    {design} {variant}: s = {state.s:.4f}, {state.iterations} iterations, "
                       f"{time.perf_counter() - t0:.0f} s, {state.metrics['bending_angle_deg']:.2f} deg, "
                       f"negative eigenvalues {state.negative_eigenvalues}", flush=True)
 
-        with instrumented(tracer, checker, timer):
-            res = simulate_module.simulate(model, on_step=on_step, **sim_kw)
+        res = simulate(model, on_step=on_step, observers=observers, **sim_kw)
         wall = time.perf_counter() - t0
     finally:
-        simulate_module.solve_path = original_path
         for k, v in saved_attrs.items():
             setattr(LinearSolver, k, v)
     if timer is not None:
+        timer.add_terms(res.term_timings)
         print(timer.summary(f"{design} {variant} {label_of(seed, replica)}", wall), flush=True)
     if checker is not None:
         print(checker.summary(f"{design} {variant} {label_of(seed, replica)}"), flush=True)
@@ -207,7 +180,7 @@ def run(design: str, variant: str, seed: int | None, steps: bool, overrides: tup
         print(tracer.summary(f"{design} {variant} {label_of(seed, replica)}") + f"\n  trace written to {name}", flush=True)
     m = res.metrics
     rounds = res.stabilisation.get("release_rounds", [])
-    history = paths[-1].history if paths else []
+    history = steps_seen.history
     release_its = sum(r["iterations"] for r in rounds) + sum(h.release_iterations for h in history)
     n_rounds = len(rounds) + sum(h.release_rounds for h in history)
     if len(calls) > 1 and calls[-1].index == calls[-2].index:

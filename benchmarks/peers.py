@@ -28,7 +28,7 @@ What is timed (best of ``--repeats`` after a warm-up, at the perturbed state)
   tangent    the stiffness matrix: hydrojam ``Solid.hessian`` (unprojected); FElupe
              ``SolidBody.assemble.matrix`` (elasticity tensor + assembly)
   solve      partition K into the free block + one PARDISO solve, each code as it runs in its
-             Newton loop: hydrojam ``K[free][:, free]`` and ``fem.linsolve.LinearSolver`` (real
+             Newton loop: hydrojam ``K[free][:, free]`` and ``fem.solver.linsolve.LinearSolver`` (real
              symmetric indefinite, upper triangle, the analysis reused while the pattern stays);
              FElupe ``fem.solve.partition`` + ``fem.solve.solve(solver=pypardiso.spsolve)`` (the
              general LU, analysis every call: the stored factorisation is dropped before each
@@ -92,7 +92,7 @@ from _common import fmt, print_environment, print_load, section, table  # noqa: 
 from hydrojam.fem import meshing as _gmsh  # noqa: E402
 from hydrojam.fem.assembly import Block, Solid  # noqa: E402
 from hydrojam.fem.elements import element_for_meshio_type  # noqa: E402
-from hydrojam.fem.linsolve import LinearSolver  # noqa: E402
+from hydrojam.fem.solver.linsolve import LinearSolver  # noqa: E402
 from hydrojam.fem.mesh import Mesh  # noqa: E402
 from hydrojam.materials.energies import NeoHookean  # noqa: E402
 

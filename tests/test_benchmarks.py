@@ -1,5 +1,6 @@
-"""The benchmarks' instruments, run on a small problem: they wrap hydrojam's internals, so a
-change of an internal signature breaks them without any benchmark being run."""
+"""The benchmarks' instruments, run on a small problem: they observe the solver through its
+events (hydrojam.fem.solver.events), and the recorders of the linear systems wrap PARDISO's
+handle, so a change of either breaks them without any benchmark being run."""
 
 import sys
 from pathlib import Path
@@ -8,8 +9,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from hydrojam.fem.linsolve import LinearSolver
-from hydrojam.fem.newton import minimize
+from hydrojam.fem import LinearSolver
+from hydrojam.fem.solver.newton import minimize
 from hydrojam.fem.terms import EnergyTerm
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
@@ -34,90 +35,74 @@ class _Quartic(EnergyTerm):
         return sp.diags(3 * u**2 + 1.0, format="csr")
 
 
-def _minimised_with(*instruments):
-    """The quartic minimised from x = 3 with ``instruments`` installed (``path.instrumented``)."""
-    import path as path_benchmark
-
-    with path_benchmark.instrumented(*instruments):
-        return minimize([_Quartic()], np.full((4, 1), 3.0), np.ones(4, dtype=bool), 1.0)
+def _minimised_with(*observers):
+    """The quartic minimised from x = 3 with ``observers`` attached (as ``path.py`` attaches them)."""
+    return minimize([_Quartic()], np.full((4, 1), 3.0), np.ones(4, dtype=bool), 1.0, observers=observers)
 
 
-def test_the_iteration_trace_records_every_newton_iteration_and_restores_the_solver():
-    """Installed, the trace sees every iteration of a minimisation (with the linear solver's reach
-    hint passed through) and writes its columns; uninstalled, Newton's helpers are back."""
-    import hydrojam.fem.newton as newton
-
-    saved = (newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
-             LinearSolver.resolve)
+def test_the_iteration_trace_records_every_newton_iteration():
+    """Attached, the trace sees every iteration of a minimisation, with the factorisations its
+    direction took, and writes its columns."""
     trace = IterationTrace()
     res = _minimised_with(trace)
     assert res.converged and res.iterations == len(trace.rows) > 0
     assert all(set(row) == set(FIELDS) for row in trace.rows)
-    assert all(row["solves"] >= 1 and row["substitutions"] == 0 and row["projected"] == 0 for row in trace.rows)
-    assert (newton._direction, newton._line_search, newton._marquardt_update, LinearSolver.solve,
-            LinearSolver.resolve) == saved
+    assert all(row["solves"] == 1 and row["substitutions"] == 0 and row["projected"] == 0 for row in trace.rows)
+    # the quartic's one pattern: analysed once
+    assert [row["analysis"] for row in trace.rows] == [1] + [0] * (len(trace.rows) - 1)
     assert "iterations over 1 steps" in trace.summary("quartic")
 
 
-def test_the_piece_timer_counts_the_pieces_of_a_minimisation_and_restores_them():
-    """Installed, the timer counts every direction and PARDISO call of a minimisation, PARDISO's
+def test_the_piece_timer_counts_the_pieces_of_a_minimisation():
+    """Attached, the timer counts every direction and PARDISO call of a minimisation, PARDISO's
     calls also phase by phase (their counts and seconds add up to the calls'), and prints them
-    costliest first; uninstalled, every wrapped piece is the original again."""
-    from _pieces import PIECES, PieceTimer
+    costliest first."""
+    from _pieces import PieceTimer
 
-    saved = [getattr(owner, name) for owner, name in PIECES]
+    from hydrojam.fem.solver.linsolve import _pardiso_available
+
     timer = PieceTimer()
     res = _minimised_with(timer)
     assert res.converged
-    assert timer.calls["newton._direction"] == res.iterations > 0
-    phases = [name for name in timer.calls if name.startswith("PARDISO ")]
-    # the quartic's one pattern: analysed once (phase 13), then refactorised (phase 23)
-    assert timer.calls["PARDISO analysis + factorisation + substitution (LDL^T)"] == 1
-    assert timer.calls["PARDISO factorisation + substitution (LDL^T)"] == res.iterations - 1
-    assert sum(timer.calls[p] for p in phases) == timer.calls["_Pardiso._call"]
-    assert sum(timer.seconds[p] for p in phases) == pytest.approx(timer.seconds["_Pardiso._call"], rel=1e-9)
-    assert [getattr(owner, name) for owner, name in PIECES] == saved
+    assert timer.calls["Newton direction"] == res.iterations > 0
+    assert timer.calls["linear solver (solve)"] == res.iterations
+    if _pardiso_available():
+        phases = [name for name in timer.calls if name.startswith("PARDISO ") and name != "PARDISO calls"]
+        # the quartic's one pattern: analysed once (phase 13), then refactorised (phase 23)
+        assert timer.calls["PARDISO analysis + factorisation + substitution (LDL^T)"] == 1
+        assert timer.calls["PARDISO factorisation + substitution (LDL^T)"] == res.iterations - 1
+        assert sum(timer.calls[p] for p in phases) == timer.calls["PARDISO calls"]
+        assert sum(timer.seconds[p] for p in phases) == pytest.approx(timer.seconds["PARDISO calls"], rel=1e-9)
     text = timer.summary("quartic", wall=1.0)
-    assert "newton._direction" in text and "ms a call" in text
+    assert "Newton direction" in text and "ms a call" in text
 
 
 def test_the_piece_timer_names_a_pardiso_call_by_phase_and_keeps_refused_ones_apart():
-    """A call that raises (PARDISO refusing a Cholesky) is counted under its phase with
-    " refused", and the exception goes on to the caller."""
+    """A call that failed (PARDISO refusing a Cholesky) is counted under its phase with " refused"."""
     from types import SimpleNamespace
 
-    from _pieces import PieceTimer, pardiso_label
-
-    def refuse(handle, phase, *args):
-        raise RuntimeError("not positive definite")
+    from _pieces import PieceTimer
 
     timer = PieceTimer()
-    timed = timer._timed(refuse, "_Pardiso._call", pardiso_label)
-    with pytest.raises(RuntimeError):
-        timed(SimpleNamespace(mtype=2), 23)
-    timed_ok = timer._timed(lambda handle, phase, *a: None, "_Pardiso._call", pardiso_label)
-    timed_ok(SimpleNamespace(mtype=2), 11)
-    assert timer.calls == {"_Pardiso._call": 2, "PARDISO factorisation + substitution (Cholesky) refused": 1,
+    timer.on_linear_solve(SimpleNamespace(call="solve", seconds=0.3, pattern_seconds=0.0, refine_seconds=0.0,
+                                          pardiso=((23, "Cholesky", 0.1, True), (11, "Cholesky", 0.2, False))))
+    assert timer.calls == {"linear solver (solve)": 1, "PARDISO calls": 2,
+                           "PARDISO factorisation + substitution (Cholesky) refused": 1,
                            "PARDISO analysis (Cholesky)": 1}
 
 
-def test_instruments_that_wrap_the_same_function_are_all_undone():
-    """``path.py`` installs the trace, the model check and the piece timer together; all three
-    wrap Newton's line search, so only uninstalling in reverse puts every original back."""
-    import hydrojam.fem.newton as newton
+def test_the_instruments_observe_one_minimisation_together_and_leave_it_as_it_was():
+    """``path.py`` attaches the trace, the model check and the piece timer together: each sees
+    the whole minimisation, and the minimisation is the one without them, to the bit."""
     from _model_check import ModelCheck
-    from _pieces import PIECES, PieceTimer
+    from _pieces import PieceTimer
 
-    def wrapped():
-        return [getattr(owner, name) for owner, name in PIECES] + [newton._marquardt_update, LinearSolver.solve]
-
-    saved = wrapped()
-    checker, timer = ModelCheck(1), PieceTimer()
-    res = _minimised_with(None, checker, timer)  # no trace to restore the originals last
-    assert res.converged and timer.calls["newton._line_search"] > 0
-    assert wrapped() == saved
-    _minimised_with(IterationTrace(), ModelCheck(1), PieceTimer())
-    assert wrapped() == saved
+    alone = _minimised_with()
+    trace, checker, timer = IterationTrace(), ModelCheck(1), PieceTimer()
+    res = _minimised_with(trace, checker, timer)
+    assert np.array_equal(res.x, alone.x) and res.iterations == alone.iterations
+    assert len(trace.rows) == res.iterations and timer.calls["Newton direction"] == res.iterations
+    assert len(checker.samples) == timer.calls["line search"]
 
 
 def test_the_replica_tables_are_written_as_markdown_with_their_conditions(tmp_path):
@@ -153,7 +138,7 @@ def test_the_cudss_recorder_stores_pardisos_calls_as_solvable_upper_triangles(tm
     uninstalled, PARDISO's call is back."""
     import cudss
 
-    from hydrojam.fem import linsolve
+    from hydrojam.fem.solver import linsolve
 
     if not linsolve._pardiso_available():
         pytest.skip("PARDISO is not available")
@@ -194,7 +179,7 @@ def test_the_cholmod_replay_solves_every_recorded_cholesky_and_keeps_the_refusal
     import cholmod
     import cudss
 
-    from hydrojam.fem import linsolve
+    from hydrojam.fem.solver import linsolve
 
     if not linsolve._pardiso_available():
         pytest.skip("PARDISO is not available")
@@ -241,15 +226,9 @@ def test_the_model_check_measures_each_terms_deviation_from_its_quadratic_model(
         assert dev[("quartic", a)] == pytest.approx(4 * (2.0 * hd**3 + hd**4 / 4), rel=1e-9, abs=1e-12)
     assert pairs.shape == (0, 3)
 
-    import hydrojam.fem.newton as newton
-
-    saved, check = newton._line_search, ModelCheck(1)
-    check.install()
-    try:
-        res = minimize([_Quartic()], np.full((4, 1), 3.0), np.ones(4, dtype=bool), 1.0)
-    finally:
-        check.uninstall()
-    assert res.converged and len(check.samples) == res.iterations and newton._line_search is saved
+    check = ModelCheck(1)
+    res = _minimised_with(check)
+    assert res.converged and len(check.samples) == res.iterations
     assert "the quadratic model along" in check.summary("quartic")
 
 

@@ -13,8 +13,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# the modules whose docstrings carry examples: the material, swelling, one small FE solve
-DOCTEST_MODULES = ["hydrojam.materials.energies", "hydrojam.materials.swelling", "hydrojam.fem"]
+# the modules whose docstrings carry examples: the material, swelling, small FE solves
+DOCTEST_MODULES = ["hydrojam.materials.energies", "hydrojam.materials.swelling", "hydrojam.fem",
+                   "hydrojam.fem.solver.path"]
 
 
 @pytest.mark.parametrize("name", DOCTEST_MODULES)

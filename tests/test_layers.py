@@ -1,4 +1,4 @@
-"""The package's shape (DESIGN.md section 9): data flows one way through the layers, no import
+"""The package's shape (docs/decisions.md, "Shape of the code"): data flows one way through the layers, no import
 cycles, light imports stay light, and no module changes a user's matplotlib backend.
 
 Layers, lowest first: the shared helpers (``_version``, ``_io``, ``_validation``, ``_format``, ``_lazy``, ``_interrupt``) < ``materials`` < ``fem`` <
@@ -158,3 +158,68 @@ def test_the_version_is_defined_once_and_matches_the_package_metadata():
 
     pyproject = tomllib.loads((SRC.parents[1] / "pyproject.toml").read_text())
     assert hydrojam.__version__ == __version__ == pyproject["project"]["version"]
+
+
+def _public_names(package: str) -> set[str] | None:
+    """The names a subpackage's ``__init__`` makes public (its ``__all__``, or the lists of its lazy
+    ``_PUBLIC``), read from its source; None where ``package`` is not a subpackage."""
+    path = _modules().get(package)
+    if path is None or path.name != "__init__.py":
+        return None
+    names: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id in ("_PUBLIC", "__all__")
+                                                for t in node.targets):
+            lists = node.value.values if isinstance(node.value, ast.Dict) else [node.value]
+            names |= {e.value for v in lists if isinstance(v, (ast.List, ast.Tuple)) for e in v.elts}
+    return names
+
+
+def _imported_names(name: str, path: Path):
+    """(module, name) of every ``from hydrojam... import name`` in ``name``'s source."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                mod = ".".join(base[: len(base) - node.level + 1] + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            if mod.startswith("hydrojam"):
+                yield from ((mod, a.name) for a in node.names)
+
+
+def test_imports_across_subpackages_use_only_their_public_names():
+    """The faces are the boundary: a module imports from another subpackage (fem, actuator, ...)
+    only the names that subpackage's ``__init__`` makes public."""
+    wrong = []
+    for name, path in _modules().items():
+        layer = _layer(name)
+        for mod, imported in _imported_names(name, path):
+            other = _layer(mod)
+            if layer is None or other is None or other == layer or RANK[other] == 0:
+                continue  # the same subpackage, or the shared helpers (_io, _validation, ...)
+            public = _public_names(f"hydrojam.{other}")
+            if public is None:
+                continue  # a layer that is one module (cli): its names are its own
+            if f"{mod}.{imported}" in _modules():
+                wrong.append(f"{name}: imports the module {mod}.{imported}")
+            elif imported not in public:
+                wrong.append(f"{name}: from {mod} import {imported} (not in hydrojam.{other}'s public names)")
+    assert not wrong, "imports across subpackages past their faces:\n" + "\n".join(wrong)
+
+
+def test_no_private_name_is_imported_from_another_module():
+    """A private name (``_name``) stays in its module; a private module (``_kernels``) is imported
+    only within its own package."""
+    wrong = []
+    for name, path in _modules().items():
+        for mod, imported in _imported_names(name, path):
+            if not imported.startswith("_") or imported.startswith("__"):
+                continue
+            if f"{mod}.{imported}" in _modules():
+                if not (name + ".").startswith(mod + "."):
+                    wrong.append(f"{name}: imports the private module {mod}.{imported}")
+            else:
+                wrong.append(f"{name}: from {mod} import {imported}")
+    assert not wrong, "private names imported from other modules:\n" + "\n".join(wrong)

@@ -104,7 +104,7 @@ def non_finite_message(label: str, value, allowed: str | None = None, unit: str 
     """The one wording for a non-finite number, for design files and CLI options alike:
     '{label}: must be a finite number; allowed range {allowed} {unit} (got nan)'."""
     where = f"; allowed range {allowed}{' ' + unit if unit else ''}" if allowed else ""
-    return f"{label}: must be a finite number{where} (got {_short(value)})"
+    return f"{label}: must be a finite number{where} (got {short_repr(value)})"
 
 
 # pydantic error kinds that judge a value's type or size: a non-finite input gets the finite wording
@@ -152,7 +152,8 @@ _EXPECTED = {
 _BOUND = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<", "less_than_equal": "<="}
 
 
-def _short(value, limit: int = 60) -> str:
+def short_repr(value, limit: int = 60) -> str:
+    """``repr(value)``, cut to ``limit`` characters with "..." (for one-line messages)."""
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
@@ -193,15 +194,15 @@ def explain_error(err: ValidationError, model: type[BaseModel], names: dict[str,
         elif kind in _BOUND:
             bound = next(iter((e.get("ctx") or {}).values()), "?")
             bound = f"{bound:g}" if isinstance(bound, float) else bound
-            msg = f"{path}: must be {_BOUND[kind]} {bound}{where} (got {_short(got)})"
+            msg = f"{path}: must be {_BOUND[kind]} {bound}{where} (got {short_repr(got)})"
         elif kind in _EXPECTED:
-            msg = f"{path}: expected {_EXPECTED[kind]}, got {_short(got)} ({type(got).__name__}){where}"
+            msg = f"{path}: expected {_EXPECTED[kind]}, got {short_repr(got)} ({type(got).__name__}){where}"
         elif kind == "literal_error":
-            msg = f"{path}: expected {e['ctx']['expected']}, got {_short(got)}"
+            msg = f"{path}: expected {e['ctx']['expected']}, got {short_repr(got)}"
         elif kind == "finite_number":
             msg = non_finite_message(path, got, rng, unit)
         elif kind == "missing":
             msg = f"{path}: required key missing"
         else:
-            msg = f"{path}: {e['msg'][:1].lower()}{e['msg'][1:]}{where} (got {_short(got)})"
+            msg = f"{path}: {e['msg'][:1].lower()}{e['msg'][1:]}{where} (got {short_repr(got)})"
     return " ".join(msg.split("\n"))

@@ -1,4 +1,4 @@
-"""The 3D actuator (DESIGN.md sections 6-7; issue 13): the gmsh tet10 mesh and its groups by hand,
+"""The 3D actuator (docs/actuator.md, "3D"; issue 13): the gmsh tet10 mesh and its groups by hand,
 the half model's symmetry set-up, the 3D metrics on closed-form states, the undeformed check,
 no interpenetration at accepted states, half against full model, VTU mirroring and refusals.
 
@@ -249,7 +249,7 @@ def test_the_cli_refuses_a_sphere_deeper_than_the_cavity_before_meshing(tmp_path
 
 def test_nothing_moves_at_the_as_prepared_stimulus_in_3d():
     """Target stimulus (mu0, T0): the as-prepared state is stress-free and contact-free, so no node
-    moves (DESIGN.md section 3, reference configuration) and every metric stays at its reference."""
+    moves (docs/model.md, "Reference state") and every metric stays at its reference."""
     d = default_design()
     model = build_model(_design(f"stimulus.mu={d.hydrogel.mu0!r}", f"stimulus.temperature={d.hydrogel.T0!r}"))
     res = simulate(model)

@@ -27,7 +27,7 @@ from hydrojam.actuator.model import build_model
 from hydrojam.actuator.results import ResultWriter
 from hydrojam.actuator.simulate import simulate
 from hydrojam.cli import main
-from hydrojam.fem.path import ReleaseOptions
+from hydrojam.fem.solver.release import ReleaseOptions
 
 SMALL = ["particle_layers=1", "mesh.size=4"]
 

@@ -33,7 +33,7 @@ def _refusal(data: dict) -> str:
 
 
 def test_defaults_match_design_md():
-    """DESIGN.md section 6: d 16, PL 5, clearance 0.1, t0 2, t1 4, h 8; cavity 16.2 x 80.6, L 88.6."""
+    """docs/actuator.md, "Design": d 16, PL 5, clearance 0.1, t0 2, t1 4, h 8; cavity 16.2 x 80.6, L 88.6."""
     d = default_design()
     assert d == Design()
     assert (d.dimension, d.particle_diameter, d.particle_layers, d.particles_per_layer) == (2, 16.0, 5, 1)

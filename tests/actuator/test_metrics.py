@@ -1,4 +1,4 @@
-"""Verification of the actuator metrics (DESIGN.md sections 6 and 7) against closed-form motions.
+"""Verification of the actuator metrics (docs/actuator.md, "Metrics") against closed-form motions.
 
 Sign convention under test: in the (x right, z up) plane, with the clamp at z = 0 and the free end
 at z = -L, bending toward the strain-limit side (-x) is a clockwise rotation and counts positive.

@@ -1,4 +1,4 @@
-"""The actuator model (DESIGN.md sections 4-7): mesh groups, particle placement, contact set-up and
+"""The actuator model (docs/actuator.md, "Model"): mesh groups, particle placement, contact set-up and
 the measurements of section 7 on synthetic states (rigid rotations, uniform dilations).
 
 No test here runs the solver: the states are the reference positions X moved by closed-form maps.
@@ -204,7 +204,7 @@ def test_contact_components_are_one_per_particle_and_one_wall(model):
 
 
 # ------------------------------------------------------------------------------------------------
-# Measurements (DESIGN.md section 7)
+# Measurements (docs/actuator.md, "Metrics")
 
 
 def test_check_supported_accepts_3d():

@@ -1,4 +1,4 @@
-"""Results on disk (DESIGN.md section 9; layout in hydrojam.actuator.results): cell fields verified against
+"""Results on disk (docs/actuator.md, "Outputs"; layout in hydrojam.actuator.results): cell fields verified against
 closed-form stresses, the VTU and PVD files, and the ResultWriter end to end.
 
 No test here runs the solver: states are built by hand (StepState, SimulationResult) from the

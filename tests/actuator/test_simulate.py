@@ -20,7 +20,7 @@ def _model(*overrides):
 
 def test_nothing_moves_when_the_stimulus_stays_at_the_as_prepared_state():
     """With the target stimulus equal to (mu0, T0) the as-prepared state is stress-free and
-    contact-free: every node stays where it is (DESIGN.md section 3, reference configuration)."""
+    contact-free: every node stays where it is (docs/model.md, "Reference state")."""
     d = default_design()
     mu0, T0 = d.hydrogel.mu0, d.hydrogel.T0
     model = _model("particle_layers=2", f"stimulus.mu={mu0!r}", f"stimulus.temperature={T0!r}")
@@ -42,7 +42,7 @@ def test_a_solver_that_cannot_converge_says_so_and_keeps_the_last_converged_stat
 
 
 def test_every_reported_state_is_an_equilibrium_of_the_physics_alone():
-    """DESIGN.md section 8: every state the run reports (each history row, not only the last) is
+    """docs/solver.md, "Release at every step": every state the run reports (each history row, not only the last) is
     an equilibrium without any stabilisation. Checked from the terms directly: at each state the
     physics alone (elastic and contact terms at the state's stimulus, no viscous term) has a
     residual over the free DOFs within a few times the solver's tolerance (rtol x the elastic

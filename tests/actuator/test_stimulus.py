@@ -69,7 +69,7 @@ def test_swelling_path_follows_a_gel_that_collapses(dimension):
 
 
 def test_swelling_path_reaches_the_plane_strain_stretch():
-    """The 2D path's end state: in-plane stretch 2.586 from the as-prepared state (DESIGN.md 3)."""
+    """The 2D path's end state: in-plane stretch 2.586 from the as-prepared state (docs/actuator.md, "Stimulus path")."""
     s1 = constrained_swelling(P, 0.0, 275.0, (P.lambda0,))
     assert s1.stretch / P.lambda0 == pytest.approx(2.586, abs=1e-3)
 

@@ -25,9 +25,9 @@ from hydrojam.actuator.stimulus import (
 )
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.elements import element_for_meshio_type
-from hydrojam.fem.linsolve import LinearSolver
+from hydrojam.fem.solver.linsolve import LinearSolver
 from hydrojam.fem.meshing import quarter_disk
-from hydrojam.fem.newton import NewtonOptions, minimize
+from hydrojam.fem.solver.newton import NewtonOptions, minimize
 from hydrojam.fem.problem import Problem, fixed
 from hydrojam.fem.terms import EnergyTerm
 from hydrojam.fem.volume import LocalVolumeTerm, VolumeTerm
@@ -264,7 +264,9 @@ def test_a_step_bends_monotonically_towards_the_untimed_final_state(untimed, tmp
     # step from 300 to 275 K swells the particles 6.6-fold
     assert abs(m["mean_swelling_ratio"] - m0["mean_swelling_ratio"]) <= 3 * area
     tau = m["particle_time_constant_s"]
-    assert 0 < m["time_to_90_percent_angle_s"] < 10 * tau and m["max_bending_angle_deg"] == pytest.approx(final)
+    # the largest angle is the final one within the wander allowed above (1e-4 of the angle)
+    assert 0 < m["time_to_90_percent_angle_s"] < 10 * tau
+    assert m["max_bending_angle_deg"] == pytest.approx(final, rel=1e-4)
     assert 0 < m["swelling_time_to_90_percent_s"] < 10 * tau
     assert m["cycle_return_deg"] is None and m["hysteresis_deg"] is None
     w = ResultWriter(tmp_path, res.model, vtu=False)
@@ -394,6 +396,7 @@ def _particle_in_time(path, wall_radius=None, every=1, volume_term=True, until=n
             term.begin_step(x)
         res = minimize(terms, x, free, force_scale, NewtonOptions(max_iter=100), solver)
         assert res.converged, (t, res.message)
+        control.step_accepted()
         x = res.x
         rows.append((t, area.volumes(x)[0], a_ref * math.exp(path.mean[k]) / P.lambda0**3,
                      0.0 if wall is None else wall.force(x)))

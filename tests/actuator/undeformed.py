@@ -1,10 +1,10 @@
-"""The undeformed-state check shared by the 2D and 3D simulation tests (DESIGN.md section 3)."""
+"""The undeformed-state check shared by the 2D and 3D simulation tests (docs/model.md, "Reference state")."""
 
 import math
 
 import numpy as np
 
-from hydrojam.fem.newton import NewtonOptions
+from hydrojam.fem.solver.newton import NewtonOptions
 
 
 def assert_nothing_moved(model, res) -> float:

@@ -29,7 +29,7 @@ def test_swelling_pressure_is_minus_the_free_energy_derivative(T):
 
 def test_swelling_pressure_is_zero_as_prepared_and_megapascals_when_cold():
     """Zero at the as-prepared stimulus (mu0, T0) (stress-free by the definition of mu0); at
-    275 K in water about 7 MPa (the radial solution of DESIGN.md section 6), falling with T."""
+    275 K in water about 7 MPa (the radial solution of docs/model.md), falling with T."""
     p = HydrogelParams()
     assert confined_swelling_pressure(p, p.mu0, p.T0) == pytest.approx(0.0, abs=1e-9 * p.kT_over_nu)
     cold = confined_swelling_pressure(p, 0.0, 275.0)

@@ -1,5 +1,5 @@
 """Verification of a swelling gel core confined by a neo-Hookean elastomer shell (issue 13, item 3;
-the confinement figures of issue 15 and DESIGN.md section 6): a gel sphere in a spherical shell
+the confinement figures of issue 15 and docs/decisions.md, "Geometry"): a gel sphere in a spherical shell
 (3D) and a gel disk in an annulus (2D plane strain), each against a 1D radial solution computed
 here, independently of the finite-element code.
 
@@ -8,7 +8,7 @@ shell's current inner surface):
 - the core swells homogeneously, F = stretch I from the as-prepared state (2D: diag(stretch,
   stretch, 1), the out-of-plane stretch held at the as-prepared one as hydrojam's 2D gel does),
   with radial Cauchy stress -p; its stress is written out below from the gel's free energy
-  (DESIGN.md section 3, paper Eqs. 1-3), not taken from the FE code;
+  (docs/model.md, paper Eqs. 1-3), not taken from the FE code;
 - the shell's large-deformation radial equilibrium dP_r/dR + m (P_r - P_t)/R = 0 (nominal
   stresses, m = 2 for the sphere, 1 for the plane-strain cylinder) with hydrojam's NeoHookean
   strain energy W = G/2 (J^(-2/3) I1 - 3) + K/2 (J - 1)^2, volumetric part included (in plane
@@ -36,8 +36,8 @@ from hydrojam.fem.contact import Contact, ContactSettings, collision_primitives
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.fem.mesh import Mesh, merge
 from hydrojam.fem.meshing import ball_octant, quarter_disk, shell_sector
-from hydrojam.fem.newton import NewtonOptions
-from hydrojam.fem.path import PathOptions, solve_path
+from hydrojam.fem.solver.newton import NewtonOptions
+from hydrojam.fem.solver.path import PathOptions, solve_path
 from hydrojam.fem.problem import Problem, fixed
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean
 
@@ -61,7 +61,7 @@ KAPPA = SHELL.shear_modulus
 def gel_pressure(stretch, dim, mu=MU_TARGET, T=T_TARGET, params=PARAMS):
     """Pressure p [MPa] that holds the gel core homogeneously at ``stretch`` (from the as-prepared
     state; 2D: in plane, out-of-plane held at 1): minus its radial Cauchy stress, from the
-    principal nominal stresses of DESIGN.md section 3 in dry stretches L_i = lambda0 x stretch,
+    principal nominal stresses of docs/model.md in dry stretches L_i = lambda0 x stretch,
     s_i = n (L_i - 1/L_i) + (J/L_i) g(J), sigma_i = (kT/nu) L_i s_i / J."""
     lam0 = params.lambda0
     L = np.array([lam0 * stretch, lam0 * stretch, lam0 * stretch if dim == 3 else lam0])
@@ -186,7 +186,7 @@ def test_shell_reference_matches_the_incompressible_closed_form(dim):
 
 
 def test_confinement_figures_of_the_default_design():
-    """Issue 15 and DESIGN.md section 6 quote, for the default design (a 16 mm bead, 0.1 mm
+    """Issue 15 and docs/decisions.md ("Geometry") quote, for the default design (a 16 mm bead, 0.1 mm
     clearance, a 2 mm Ecoflex 00-30 wall, pure water at 275 K): a contact pressure of about
     4-5 kPa against about 7 MPa for a rigidly held gel, a bead within 1 % of free swelling and a
     wall hoop stretch of about 2.5. The 1D reference for those materials and sizes, measured:

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from hydrojam.fem.linsolve import LinearSolver, LinearSolveError, _pardiso_available
+from hydrojam.fem.solver.linsolve import LinearSolver, LinearSolveError, _pardiso_available
 
 METHODS = ["scipy"] + (["pardiso"] if _pardiso_available() else [])
 
@@ -161,7 +161,7 @@ def test_later_handles_reuse_the_mkl_found_first_and_leave_the_environment_alone
     and solves like the first; PYPARDISO_MKL_RT is set only while a handle is constructed."""
     import os
 
-    from hydrojam.fem.linsolve import _Pardiso
+    from hydrojam.fem.solver.linsolve import _Pardiso
 
     monkeypatch.delenv("PYPARDISO_MKL_RT", raising=False)
     K = sp.csr_matrix(np.array([[2.0, 1.0], [1.0, -3.0]]))
@@ -179,7 +179,7 @@ def test_later_handles_reuse_the_mkl_found_first_and_leave_the_environment_alone
 def test_pardiso_settings_change_round_off_only(monkeypatch, settings):
     """MKL's defaults, minimum-degree ordering and refinement only after perturbed pivots: each
     against numpy's dense solve, to 100 x eps x cond(K) relative to |x|."""
-    from hydrojam.fem.linsolve import _Pardiso
+    from hydrojam.fem.solver.linsolve import _Pardiso
 
     monkeypatch.setattr(_Pardiso, "settings", settings)
     solver = LinearSolver("pardiso")
@@ -199,7 +199,7 @@ def test_a_3d_dense_pattern_is_ordered_by_metis_and_a_2d_one_by_minimum_degree(m
     dense_row lowered to 10) is analysed with METIS (iparm(2) = 2), the 2D grid of
     :func:`_contact_sequence` (3 a row) with minimum degree (0); both solve to
     100 x eps x cond(K) relative to |x| against numpy's dense solve."""
-    from hydrojam.fem.linsolve import _Pardiso
+    from hydrojam.fem.solver.linsolve import _Pardiso
 
     m = 7
     idx = np.arange(m**3).reshape(m, m, m)
@@ -261,7 +261,7 @@ def test_a_definite_solve_refuses_an_indefinite_dense_matrix_and_solves_a_defini
     is solved to 100 x eps x cond(K) relative to |x| against numpy's dense solve, with no
     negative eigenvalue, reusing the analysis that the refused matrix of the same pattern made,
     and the LDL^T handle, used again for an indefinite K, still reports its inertia."""
-    from hydrojam.fem.linsolve import NotPositiveDefinite
+    from hydrojam.fem.solver.linsolve import NotPositiveDefinite
 
     solver = LinearSolver("pardiso")
     b = np.ones(40)
@@ -297,7 +297,7 @@ def test_a_reused_ordering_solves_like_a_fresh_one(monkeypatch):
     each pattern ordered afresh: both direct solves of the same matrices, so the same solutions
     to 100 x eps x cond(K) relative to |x|; the ordering was computed only where the fill grew
     past ``reorder_fill`` (here at the first analysis and at most a few more)."""
-    from hydrojam.fem.linsolve import _Pardiso
+    from hydrojam.fem.solver.linsolve import _Pardiso
 
     monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
     reused = LinearSolver("pardiso")
@@ -318,7 +318,7 @@ def test_an_ordering_whose_fill_grew_is_computed_afresh(monkeypatch):
     """With ``reorder_fill`` below 1 every analysis on a reused ordering counts as filling too
     much: the next analysis orders afresh, so orderings are computed at every other analysis
     (``dense_row`` lowered: these grid matrices count as dense)."""
-    from hydrojam.fem.linsolve import _Pardiso
+    from hydrojam.fem.solver.linsolve import _Pardiso
 
     monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
     solver = LinearSolver("pardiso")
@@ -335,7 +335,7 @@ def test_a_restored_solver_goes_on_bit_for_bit(monkeypatch, stop):
     orderings) solves the rest of a sequence with the same bits as the one that went on: the
     same patterns analysed with the same orderings (``dense_row`` lowered: these grid matrices
     count as dense, so orderings are reused)."""
-    from hydrojam.fem.linsolve import _Pardiso
+    from hydrojam.fem.solver.linsolve import _Pardiso
 
     monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
     seq = _contact_sequence(seed=6)
@@ -364,7 +364,7 @@ def test_a_sparse_2d_pattern_computes_its_own_ordering():
 
 def _dense(monkeypatch):
     """Let the grid matrices count as dense (3D-like): ordered by METIS, the last ordering kept."""
-    from hydrojam.fem.linsolve import _Pardiso
+    from hydrojam.fem.solver.linsolve import _Pardiso
 
     monkeypatch.setattr(_Pardiso, "dense_row", 1.0)
 
@@ -460,7 +460,7 @@ def test_a_solve_is_refined_only_after_perturbed_pivots(monkeypatch, perturbed, 
     then the solve is redone with the refinement (phase 33, iparm(8) as pardisoinit set it).
     Either way the residual is within 10x of the forced refinement's, or of a backward-stable
     solve's round-off, 100 eps ||K||_1 ||x||, whichever is larger."""
-    from hydrojam.fem.linsolve import _Pardiso
+    from hydrojam.fem.solver.linsolve import _Pardiso
 
     if dense:
         monkeypatch.setattr(_Pardiso, "dense_row", 1.0)

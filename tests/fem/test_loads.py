@@ -13,7 +13,7 @@ from scipy.optimize import brentq
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.fem.meshing import annulus, ball, disk
-from hydrojam.fem.path import PathOptions, solve_path
+from hydrojam.fem.solver.path import PathOptions, solve_path
 from hydrojam.fem.problem import Problem, fixed
 from hydrojam.fem.terms import PressureTerm, ScaledTerm, outward_facets
 from hydrojam.materials.energies import NeoHookean

@@ -1,4 +1,4 @@
-"""Where a load path loses stability (hydrojam.fem.path, StepRecord.negative_eigenvalues): the
+"""Where a load path loses stability (hydrojam.fem.solver.path, StepRecord.negative_eigenvalues): the
 detector against problems whose critical load is known analytically, and stable problems on
 which it must stay silent."""
 
@@ -12,9 +12,9 @@ from scipy.optimize import brentq
 
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.elements import element_for_meshio_type
-from hydrojam.fem.linsolve import _pardiso_available
+from hydrojam.fem.solver.linsolve import _pardiso_available
 from hydrojam.fem.meshing import quarter_disk, rectangle
-from hydrojam.fem.path import ReleaseOptions
+from hydrojam.fem.solver.release import ReleaseOptions
 from hydrojam.fem import NewtonOptions, PathOptions, Problem, fixed, solve_path
 from hydrojam.fem.terms import EnergyTerm, LinearTerm, ScaledTerm, ViscousStabilisation, surface_load
 from hydrojam.materials.energies import Hydrogel, HydrogelParams, NeoHookean
@@ -273,24 +273,43 @@ def test_a_saddle_is_settled_to_the_analytic_minimum_with_a_full_newton_finish()
     """``settle`` from the saddle u = 0 of two :class:`Piece` terms reaches a minimum u = +-1,
     within the residual over the curvature 2, reported stable; its full-Newton finish takes fewer
     iterations than projected Newton from the same nudge (linear at the rate 1/3)."""
-    from hydrojam.fem.linsolve import LinearSolver
-    from hydrojam.fem.newton import minimize
-    from hydrojam.fem.path import settle
+    from hydrojam.fem.solver.linsolve import LinearSolver
+    from hydrojam.fem.solver.newton import minimize
+    from hydrojam.fem.solver.stability import settle
 
     terms = [Piece("concave", a=1.0), Piece("quartic", c=1.0)]
     x = np.array([[0.0], [1.0]])  # DOF 1 held: it gives the bounding box its size, 1 mm
     free = np.array([True, False])
+    from hydrojam.fem.solver.path import SETTLE_PERTURBATION
+
     options = PathOptions()
-    out = settle(terms, x, free, 1.0, options, LinearSolver(), LinearSolver())
+    out = settle(terms, x, free, 1.0, options.newton, LinearSolver(), LinearSolver(), SETTLE_PERTURBATION)
     assert out.negative == 0
     assert out.residual <= out.tolerance
     assert abs(abs(out.x[0, 0]) - 1.0) <= out.residual / 2.0 * 1.5
-    # settle's first nudge: the seeded vector of settle_perturbation x the bounding box diagonal
-    nudge = options.settle_perturbation * np.random.default_rng(0).standard_normal(x.shape) * free.reshape(x.shape)
-    projected = minimize(terms, x + nudge, free, 1.0,
-                         dataclasses.replace(options.newton, projection="always", max_iter=400), LinearSolver())
+    # settle's first nudge: the seeded vector of SETTLE_PERTURBATION x the bounding box diagonal;
+    # projected Newton (IPC's: every term's Hessian projected to PSD) from there
+    nudge = SETTLE_PERTURBATION * np.random.default_rng(0).standard_normal(x.shape) * free.reshape(x.shape)
+    projected = minimize([_Projected(t) for t in terms], x + nudge, free, 1.0,
+                         dataclasses.replace(options.newton, max_iter=400), LinearSolver())
     assert projected.converged and abs(abs(projected.x[0, 0]) - 1.0) <= projected.residual / 2.0 * 1.5
     assert out.iterations < projected.iterations
+
+
+class _Projected(EnergyTerm):
+    """Another term with its Hessian always projected to positive semi-definite (IPC's Newton)."""
+
+    def __init__(self, term):
+        self.term, self.name = term, term.name
+
+    def energy(self, x):
+        return self.term.energy(x)
+
+    def gradient(self, x):
+        return self.term.gradient(x)
+
+    def hessian(self, x, project=False):
+        return self.term.hessian(x, True)
 
 
 class Well(EnergyTerm):
@@ -329,8 +348,8 @@ def test_the_lowest_mode_of_a_saddle_is_its_unstable_direction():
     """LOBPCG (60 free DOFs, preconditioned by the projected Hessian) finds the eigenvalue -1 of
     the saddle's DOF and its mode, within its residual tolerance over the gap to the next
     eigenvalue (0.5), and scales the mode to a largest nodal move of 1."""
-    from hydrojam.fem.linsolve import LinearSolver
-    from hydrojam.fem.newton import lowest_mode
+    from hydrojam.fem.solver.linsolve import LinearSolver
+    from hydrojam.fem.solver.stability import lowest_mode
 
     terms, x, free = _saddle_in_many_dofs()
     value, mode = lowest_mode(terms, x, free, LinearSolver())
@@ -345,11 +364,11 @@ def test_a_saddle_among_many_dofs_is_settled_along_its_mode():
     """From the saddle, ``settle`` moves along the mode and reaches the minimum u = +-1 (within the
     residual over the curvature 2), the wells' DOFs where they were (within the residual over
     their curvature), reported stable."""
-    from hydrojam.fem.linsolve import LinearSolver
-    from hydrojam.fem.path import settle
+    from hydrojam.fem.solver.linsolve import LinearSolver
+    from hydrojam.fem.solver.stability import settle
 
     terms, x, free = _saddle_in_many_dofs()
-    out = settle(terms, x, free, 1.0, PathOptions(), LinearSolver(), LinearSolver())
+    out = settle(terms, x, free, 1.0, PathOptions().newton, LinearSolver(), LinearSolver())
     assert out.negative == 0 and out.residual <= out.tolerance
     assert abs(abs(out.x[0, 0]) - 1.0) <= out.residual / 2.0 * 1.5
     assert np.abs(out.x[1:] - x[1:]).max() <= out.residual / 0.5 * 1.5
@@ -361,8 +380,8 @@ def test_the_lowest_mode_is_found_beside_many_soft_modes():
     out, so the preconditioner sees +2 there). LOBPCG must not stop on the soft cluster, whose
     residuals are below its tolerance: it finds -1 at DOF 100 (within the tolerance's square over
     the gap) and the mode points there."""
-    from hydrojam.fem.linsolve import LinearSolver
-    from hydrojam.fem.newton import lowest_mode
+    from hydrojam.fem.solver.linsolve import LinearSolver
+    from hydrojam.fem.solver.stability import lowest_mode
 
     n = 200
     x = np.zeros((n, 1))

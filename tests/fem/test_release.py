@@ -1,4 +1,4 @@
-"""The release of a damped term by proximal rounds (hydrojam.fem.path.release), on a stand-in whose
+"""The release of a damped term by proximal rounds (hydrojam.fem.solver.release.release), on a stand-in whose
 rounds are exact proximal steps of a spring: the control (when the damping is lowered, raised,
 held at its cap), resumption from any round, and the test before the first round."""
 
@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-import hydrojam.fem.path as path
-from hydrojam.fem.linsolve import LinearSolver
-from hydrojam.fem.newton import NewtonOptions, NewtonResult, NewtonStatus, Timings
-from hydrojam.fem.path import ReleaseOptions, release
+import hydrojam.fem.solver.release as release_module
+from hydrojam.fem.solver.linsolve import LinearSolver
+from hydrojam.fem.solver.newton import NewtonOptions, NewtonResult, NewtonStatus, Timings
+from hydrojam.fem.solver.release import ReleaseOptions, release
 from hydrojam.fem.terms import EnergyTerm, ViscousStabilisation
 
 _TARGET = np.array([[1.0, 0.0]])  # the stand-in's equilibrium x* [mm]
@@ -42,7 +42,7 @@ def _stand_in(monkeypatch, fails=None, easy=True):
     stab = ViscousStabilisation(np.ones(1), 1.0, 2)
     count = [0]
 
-    def fake_minimize(terms, x, free, force_scale, options, solver):
+    def fake_minimize(terms, x, free, force_scale, options, solver, observers=()):
         x = np.asarray(x, dtype=float)
         n, count[0] = count[0], count[0] + 1
         new = (_TARGET + stab.scale * x) / (1 + stab.scale)
@@ -53,7 +53,7 @@ def _stand_in(monkeypatch, fails=None, easy=True):
         its = 30 if np.abs(new - x).max() > 1e-3 or not easy else 5
         return NewtonResult(new, NewtonStatus.CONVERGED, its, 0.0, 0.0, "", [], Timings())
 
-    monkeypatch.setattr(path, "minimize", fake_minimize)
+    monkeypatch.setattr(release_module, "minimize", fake_minimize)
     return [_Spring(), stab], stab
 
 

@@ -1,7 +1,7 @@
-"""Verification of the hyperelastic materials (DESIGN.md sections 3-4).
+"""Verification of the hyperelastic materials (docs/model.md).
 
 Every test compares the implementation with something computed independently of it: finite
-differences of its own energy, analytic closed forms coded here from DESIGN.md, linear elasticity,
+differences of its own energy, analytic closed forms coded here from docs/model.md, linear elasticity,
 or exact invariance properties (objectivity, plane strain).
 """
 
@@ -17,8 +17,8 @@ from hydrojam import Hydrogel, HydrogelParams, NeoHookean, Yeoh
 from hydrojam.materials.energies import Material
 
 PARAMS = HydrogelParams()
-KT_OVER_NU = 40.0  # MPa, DESIGN.md section 2 (typed here, not imported)
-A0, B0, A1, B1 = -12.947, 0.04496, 17.92, -0.0569  # DESIGN.md section 3
+KT_OVER_NU = 40.0  # MPa, docs/decisions.md, "Units" (typed here, not imported)
+A0, B0, A1, B1 = -12.947, 0.04496, 17.92, -0.0569  # docs/model.md, "Hydrogel"
 
 
 def _gel(mu=None, T=None):
@@ -143,7 +143,7 @@ def test_evaluate_without_tangent(name, d):
 
 @pytest.mark.parametrize("d", [2, 3])
 def test_gel_as_prepared_state_is_stress_free(d):
-    """P(I) = 0 at (mu0, T0) (DESIGN.md: mu0 is derived from this condition); W(I) = 0 by shift."""
+    """P(I) = 0 at (mu0, T0) (docs/model.md: mu0 is derived from this condition); W(I) = 0 by shift."""
     gel = _gel()
     res = gel.evaluate(np.eye(d)[None])
     assert np.abs(res.stress).max() < 1e-10
@@ -251,7 +251,7 @@ def test_inadmissible_states_have_infinite_energy_and_no_nan(name, d):
 
 
 def test_gel_admissibility_boundary_is_J_dry_equal_one():
-    """Just above J_dry = 1 the gel energy is finite, at or below it +inf (DESIGN.md section 3)."""
+    """Just above J_dry = 1 the gel energy is finite, at or below it +inf (docs/model.md, "Hydrogel")."""
     gel = _gel()
     lam0 = PARAMS.lambda0
     F = np.array([np.diag([1.0, 1.0, t / lam0**3]) for t in (1.0 + 1e-6, 1.0, 1.0 - 1e-6)])
@@ -322,11 +322,11 @@ def test_neohookean_energy_closed_form():
 
 
 # --------------------------------------------------------------------------------------------
-# 7. Gel principal stresses against the closed form of DESIGN.md
+# 7. Gel principal stresses against the closed form of docs/model.md
 
 
 def _gel_principal_stress(lams, mu, T, n=0.01, lam0=1.5):
-    """(kT/nu) s_i(lam0 * lams) / lam0^2 with s_i from DESIGN.md section 3 (independent code)."""
+    """(kT/nu) s_i(lam0 * lams) / lam0^2 with s_i from docs/model.md (independent code)."""
     l = lam0 * np.asarray(lams, dtype=float)
     J = np.prod(l)
     chi0 = A0 + B0 * T
@@ -337,7 +337,7 @@ def _gel_principal_stress(lams, mu, T, n=0.01, lam0=1.5):
 
 
 def _gel_energy(lams, mu, T, n=0.01, lam0=1.5):
-    """(kT/nu) [w(lam0 F) - w(lam0 I)] / lam0^3 for F = diag(lams), DESIGN.md section 3 (independent)."""
+    """(kT/nu) [w(lam0 F) - w(lam0 I)] / lam0^3 for F = diag(lams), docs/model.md (independent)."""
 
     def w(l):
         J = np.prod(l)
@@ -354,7 +354,7 @@ DIAG_STRETCHES = [(1.0, 1.0, 1.0), (1.3, 0.9, 1.1), (0.7, 0.8, 1.05), (2.0, 1.5,
 
 @pytest.mark.parametrize("mu, T", GEL_STATES)
 def test_gel_principal_stresses_closed_form(mu, T):
-    """Diagonal F: P_ii = (kT/nu) s_i(lambda0 F_ii) / lambda0^2 (DESIGN.md closed form), 2D and 3D."""
+    """Diagonal F: P_ii = (kT/nu) s_i(lambda0 F_ii) / lambda0^2 (the closed form of docs/model.md), 2D and 3D."""
     gel = _gel(mu, T)
     mu_val = gel.mu
     for lams in DIAG_STRETCHES:

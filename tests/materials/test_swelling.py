@@ -1,7 +1,7 @@
-"""Verification of material-point swelling of the PNIPAM gel (DESIGN.md section 3).
+"""Verification of material-point swelling of the PNIPAM gel (docs/model.md, "Swelling analysis").
 
 The free energy, the stationarity condition and the principal nominal stresses are coded again
-here, independently of hydrojam (from the formulas of DESIGN.md), and the library's equilibria are
+here, independently of hydrojam (from the formulas of docs/model.md), and the library's equilibria are
 checked against them: stationarity residuals, brute-force global minimisation on dense grids, and
 the paper's reference chemical potential.
 """
@@ -23,7 +23,7 @@ from hydrojam import (
 )
 from hydrojam.materials.swelling import equilibrium_stretches
 
-# DESIGN.md section 3, typed here so that a wrong default in the library is caught
+# docs/model.md, "Hydrogel", typed here so that a wrong default in the library is caught
 N = 0.01
 LAM0 = 1.5
 T0 = 300.0
@@ -54,7 +54,7 @@ def w_free(lam, mu, T, n=N):
 
 
 def stationarity_residual(lam, mu, T, n=N):
-    """RHS - mu of the DESIGN.md condition mu = ln(1-phi) + phi + chi phi^2 - chi1 phi^2 (1-phi) + n(1/l - 1/l^3).
+    """RHS - mu of the docs/model.md condition mu = ln(1-phi) + phi + chi phi^2 - chi1 phi^2 (1-phi) + n(1/l - 1/l^3).
 
     dw/dlambda = 3 lambda^2 * residual, so its sign changes from - to + mark the local minima.
     """
@@ -84,7 +84,7 @@ def principal_stresses(lams, mu, T, n=N):
     return n * (lams - 1 / lams) + (J / lams) * g_mix(J, mu, T)
 
 
-# The paper's / DESIGN.md's mu0, computed from the stationarity condition at (lambda0, T0)
+# The paper's mu0 (docs/model.md), computed from the stationarity condition at (lambda0, T0)
 MU0_INDEP = float(stationarity_residual(LAM0, 0.0, T0))
 
 # Dense grid for brute-force minimisation over lambda in (1, 10]
@@ -107,7 +107,7 @@ def grid_minima(mu, T):
 
 
 def test_defaults_match_design():
-    """HydrogelParams defaults are the DESIGN.md values (n, lambda0, T0, chi fit, kT/nu)."""
+    """HydrogelParams defaults are the docs/model.md values (n, lambda0, T0, chi fit, kT/nu)."""
     p = PARAMS
     assert (p.n, p.lambda0, p.T0, p.A0, p.B0, p.A1, p.B1, p.kT_over_nu) == (N, LAM0, T0, A0, B0, A1, B1, 40.0)
     assert p.chi_coefficients(290.0) == pytest.approx((A0 + B0 * 290.0, A1 + B1 * 290.0), rel=1e-15)
@@ -153,7 +153,7 @@ def curves():
 
 @pytest.mark.parametrize("mu", MUS, ids=["mu=0", "mu=mu0", "mu=-0.1"])
 def test_free_swelling_is_stationary(curves, mu):
-    """Each state satisfies the DESIGN.md stationarity condition (independent code) to 1e-9."""
+    """Each state satisfies the docs/model.md stationarity condition (independent code) to 1e-9."""
     _, states = curves[mu]
     assert len(states) == len(TEMPS)
     for T, st in zip(TEMPS, states):
@@ -338,7 +338,7 @@ def test_constraint_reduces_swelling(T):
 
 
 def test_nominal_stresses_against_independent_formula():
-    """nominal_stresses equals the DESIGN.md s_i for arbitrary principal stretches."""
+    """nominal_stresses equals the docs/model.md s_i for arbitrary principal stretches."""
     for lams, mu, T in [((1.2, 2.0, 3.1), 0.0, 280.0), ((1.5, 1.5, 1.5), -0.0343, 300.0), ((0.9, 1.4, 2.2), -0.1, 310.0)]:
         # sums of terms ~1 with chi0 = A0 + B0 T cancelling 13 to 0.5 (a stress can be ~0): round-off ~1e-15
         np.testing.assert_allclose(nominal_stresses(PARAMS, lams, mu, T), principal_stresses(lams, mu, T), rtol=1e-12, atol=1e-12)

@@ -191,8 +191,8 @@ def test_reproduce_3d_runs_a_tiny_study_end_to_end(tmp_path, monkeypatch):
     from hydrojam.paper import reproduce as preproduce
     from hydrojam.study.spec import Study, SweepSpec
 
-    def tiny(quick=False, sweeps=None, replicas=1, dimension=2):
-        base = apply_overrides(pstudy.paper_base(quick, replicas, dimension),
+    def tiny(quick=False, sweeps=None, replicas=1, dimension=2, overrides=()):
+        base = apply_overrides(pstudy.paper_base(quick, replicas, dimension, overrides),
                                ["particle_layers=1", "stimulus.temperature=300.0", "stimulus.mu=-0.025"])
         return Study(name=pstudy.study_name(quick, dimension), base=base,
                      sweeps=[SweepSpec(name="temperature", vary={"stimulus.temperature": [300.0]})])

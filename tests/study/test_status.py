@@ -14,8 +14,8 @@ import pytest
 from hydrojam.actuator.checkpoint import CHECKPOINT, ReleaseCheckpoint, RunCheckpoint, save_checkpoint
 from hydrojam.actuator.design import default_design, write_design
 from hydrojam.cli import main
-from hydrojam.fem.newton import Timings
-from hydrojam.fem.path import PathCheckpoint
+from hydrojam.fem.solver.newton import Timings
+from hydrojam.fem.solver.path import PathCheckpoint
 from hydrojam.study.spec import study_from_dict, write_study
 from hydrojam.study.status import StatusError, folder_status
 

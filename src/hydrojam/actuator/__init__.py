@@ -11,13 +11,15 @@ from __future__ import annotations
 from hydrojam._lazy import lazy_api
 
 _PUBLIC = {
-    "hydrojam.actuator.design": ['Design', 'DesignError', 'default_design', 'design_from_dict', 'load_design', 'apply_overrides', 'write_design', 'design_to_toml'],
-    "hydrojam.actuator.model": ['ActuatorModel', 'build_model', 'measure'],
-    "hydrojam.actuator.simulate": ['SimulationResult', 'simulate', 'ACTUATOR_PATH'],
+    "hydrojam.actuator.design": ['Design', 'DesignError', 'default_design', 'design_from_dict', 'load_design', 'apply_overrides', 'write_design', 'design_to_toml', 'ElastomerSpec', 'MAX_REPLICAS', 'WATER_RANGE_K', 'with_replicas', 'merge_value', 'toml_value'],
+    "hydrojam.actuator.model": ['ActuatorModel', 'build_model', 'measure', 'MEMBRANE', 'MEMBRANE_BODY', 'PARTICLES', 'STRAIN_LIMIT_BODY', 'STRAIN_LIMIT_LAYER', 'centreline_x', 'check_supported', 'outer_faces'],
+    "hydrojam.actuator.simulate": ['SimulationResult', 'simulate', 'ACTUATOR_PATH', 'STABILISATION', 'StepState'],
     "hydrojam.actuator.stimulus": ['StimulusPath', 'stimulus_path', 'TimedStimulusPath', 'timed_stimulus_path'],
-    "hydrojam.actuator.metrics": ['Metric', 'Gauges', 'metric', 'metric_names', 'bending_angle_deg', 'tip_displacement', 'curling_index', 'centreline_profile'],
-    "hydrojam.actuator.results": ['ResultWriter'],
-    "hydrojam.actuator.checkpoint": ['RunCheckpoint', 'CheckpointError', 'load_checkpoint', 'save_checkpoint'],
-    "hydrojam.actuator.plots": ['plot_actuator', 'plot_angle_time'],
+    "hydrojam.actuator.metrics": ['Metric', 'Gauges', 'metric', 'metric_names', 'bending_angle_deg', 'tip_displacement', 'curling_index', 'centreline_profile', 'STATE_METRICS', 'centreline_points'],
+    "hydrojam.actuator.results": ['ResultWriter', 'vtu_mesh', 'write_vtu'],
+    "hydrojam.actuator.checkpoint": ['RunCheckpoint', 'CheckpointError', 'load_checkpoint', 'save_checkpoint', 'CHECKPOINT', 'ReleaseProgress', 'release_progress'],
+    "hydrojam.actuator.plots": ['plot_actuator', 'plot_angle_time', 'mid_section'],
+    "hydrojam.actuator.geometry": ["actuator_2d"],
+    "hydrojam.actuator.provenance": ["source_provenance"],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

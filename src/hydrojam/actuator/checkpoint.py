@@ -21,8 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from hydrojam._io import atomic_path
-from hydrojam.fem.newton import Timings
-from hydrojam.fem.path import PathCheckpoint, StepRecord
+from hydrojam.fem import PathCheckpoint, StepRecord, Timings
 
 #: the checkpoint's file name in a run's output folder
 CHECKPOINT = "checkpoint.npz"

@@ -1,11 +1,11 @@
-"""The actuator design: one validated, frozen description of what to simulate (DESIGN.md 2-6).
+"""The actuator design: one validated, frozen description of what to simulate (docs/actuator.md, "Design").
 
 A :class:`Design` is read from and written to TOML. Units: length mm, stress MPa, temperature K,
 chemical potential k_B T. Every invalid input raises :class:`DesignError` with one line naming
 the field (dotted, e.g. ``stimulus.temperature``), the problem, the allowed range and the value
 given.
 
-Geometry (DESIGN.md section 6): x is the bending direction (strain-limit layer on the -x side),
+Geometry (docs/decisions.md, "Geometry"): x is the bending direction (strain-limit layer on the -x side),
 z the actuator axis (clamped top at z = 0, free end at z = -L), y the depth (3D only).
 """
 
@@ -67,7 +67,7 @@ _CONFIG = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class ElastomerSpec(BaseModel):
-    """An elastomer (membrane or strain-limit layer): compressible neo-Hookean or Yeoh (DESIGN.md 4).
+    """An elastomer (membrane or strain-limit layer): compressible neo-Hookean or Yeoh (docs/model.md).
 
     Default: Ecoflex 00-30, G = 0.023 MPa, Poisson's ratio 0.45. Checks: C20, C30 only with
     ``model = "yeoh"``; a Yeoh fit must keep dW/dI1bar = C10 + 2 C20 x + 3 C30 x^2 > 0 for
@@ -143,7 +143,8 @@ class GelSpec(HydrogelParams):
 
 
 class StimulusSpec(BaseModel):
-    """Target stimulus (mu [k_B T], T [K]) and the path from the as-prepared (mu0, T0) to it (DESIGN.md 3).
+    """Target stimulus (mu [k_B T], T [K]) and the path from the as-prepared (mu0, T0) to it
+    (docs/actuator.md, "Stimulus path").
 
     With a ``schedule`` ([[t_s, T_K], ...]: times strictly increasing from 0, temperatures in
     liquid water's range, 2 to 1000 points, linear in between; a step is a short ramp) the run
@@ -316,7 +317,7 @@ class ChamberSpec(BaseModel):
 
 
 class Design(BaseModel):
-    """A particle-jamming bending actuator: geometry, materials, stimulus and mesh (DESIGN.md 6).
+    """A particle-jamming bending actuator: geometry, materials, stimulus and mesh (docs/actuator.md).
 
     Cavity sizes left out (None) are derived from the particles: width ``m d + (m + 1) c``, length
     ``PL d + (PL + 1) c``, depth (3D) ``d + 2 c`` (m particles per layer, PL layers, d diameter,
@@ -702,7 +703,7 @@ def with_replicas(design: Design, count: int) -> Design:
 
 
 def default_design() -> Design:
-    """The default design (DESIGN.md section 6): d 16 mm, PL 5, clearance 0.1 mm, L = 88.6 mm.
+    """The default design (docs/actuator.md, "Design"): d 16 mm, PL 5, clearance 0.1 mm, L = 88.6 mm.
 
     Returns
     -------
@@ -772,14 +773,16 @@ def _parse_value(text: str):
         return text.strip()
 
 
-def _merge(into: dict, key: list[str], value) -> None:
+def merge_value(into: dict, key: list[str], value) -> None:
+    """Set the nested field ``key`` (its path of names) of the dict ``into`` to ``value``,
+    merging a dict into a dict already there (a design override)."""
     for name in key[:-1]:
         into = into.setdefault(name, {})
     old = into.get(key[-1])
     if isinstance(old, dict) and isinstance(value, dict):
         merged = dict(old)
         for k, v in value.items():
-            _merge(merged, [k], v)
+            merge_value(merged, [k], v)
         into[key[-1]] = merged
     else:
         into[key[-1]] = value
@@ -826,7 +829,7 @@ def apply_overrides(design: Design, overrides: list[str]) -> Design:
                 raise DesignError(
                     f"--set {item}: unknown key {key} (allowed: {', '.join(model.model_fields)})"
                 )
-        _merge(data, parts, _parse_value(text))
+        merge_value(data, parts, _parse_value(text))
         applied.append((key, item))
     try:
         return design_from_dict(data)
@@ -860,7 +863,8 @@ _EXAMPLES = {"schedule": "[[0, 300], [60, 275], [7200, 275]]",
              "strain_limit_width": "8.0  # 3D only: a strip 8 mm wide centred on the -x face"}
 
 
-def _toml(value) -> str:
+def toml_value(value) -> str:
+    """``value`` written as a TOML value (the right-hand side of ``key = value``)."""
     return tomli_w.dumps({"v": value})[len("v = "):].rstrip("\n")
 
 
@@ -875,7 +879,7 @@ def _allowed(model: type[BaseModel], name: str) -> str:
     info = model.model_fields[name]
     ann = info.annotation
     if typing.get_origin(ann) is Literal:
-        return "allowed: " + ", ".join(_toml(v) for v in typing.get_args(ann))
+        return "allowed: " + ", ".join(toml_value(v) for v in typing.get_args(ann))
     rng = field_range(model, name)
     return f"allowed {rng.replace(' ', _NBSP)}" if rng else ""
 
@@ -893,15 +897,15 @@ def _field_lines(model: BaseModel, comments: bool, owner: Design | None) -> list
             if allowed:
                 parts.append(allowed)
             if info.default is not None:
-                parts.append(f"default {_toml(info.default)}")
+                parts.append(f"default {toml_value(info.default)}")
             lines += _comment("; ".join(parts))
         if value is None:
             if comments and owner is not None and name in _DERIVED:
-                lines += [f"# {name} = {_toml(getattr(owner, _DERIVED[name]))}", ""]
+                lines += [f"# {name} = {toml_value(getattr(owner, _DERIVED[name]))}", ""]
             elif comments and name in _EXAMPLES:
                 lines += [f"# {name} = {_EXAMPLES[name]}", ""]
             continue
-        lines.append(f"{name} = {_toml(value)}")
+        lines.append(f"{name} = {toml_value(value)}")
         if comments:
             lines.append("")
     return lines
@@ -948,11 +952,11 @@ def design_to_toml(design: Design, comments: bool = True) -> str:
         if comments and k == 0:
             lines += _comment(Design.model_fields["chambers"].description)
         lines.append("[[chambers]]")
-        lines += [f"{key} = {_toml(value)}" for key, value in chamber.model_dump(exclude_none=True).items()
+        lines += [f"{key} = {toml_value(value)}" for key, value in chamber.model_dump(exclude_none=True).items()
                   if key != "hydrogel"]
         if chamber.hydrogel is not None:
             lines += ["", "[chambers.hydrogel]"]
-            lines += [f"{key} = {_toml(value)}" for key, value in chamber.hydrogel.model_dump().items()]
+            lines += [f"{key} = {toml_value(value)}" for key, value in chamber.hydrogel.model_dump().items()]
     while lines and lines[-1] == "":
         lines.pop()
     return "\n".join(lines) + "\n"

@@ -1,4 +1,4 @@
-"""The actuator's geometry (DESIGN.md section 6): the chamber, walls, strain-limit layer and
+"""The actuator's geometry (docs/actuator.md, "Geometry and mesh"): the chamber, walls, strain-limit layer and
 particles drawn with gmsh through :mod:`hydrojam.fem.meshing`, and meshed. Lengths in mm."""
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ MEMBRANE, STRAIN_LIMIT_LAYER = "membrane", "strain_limit_layer"
 
 def actuator_2d(cavity_width: float, cavity_length: float, side_wall: float, end_wall: float,
                 strain_limit: float, centres, radius: float, size: float, order: int = 2) -> Mesh:
-    """Plane-strain actuator (DESIGN.md section 6), x-z plane, lengths in mm.
+    """Plane-strain actuator (docs/actuator.md, "Geometry and mesh"), x-z plane, lengths in mm.
 
     Membrane: the rectangle [-w/2 - t0, w/2 + t0] x [-L, 0] (L = cavity_length + 2 t1) minus the
     cavity [-w/2, w/2] x [-t1 - cavity_length, -t1]; strain-limit layer [-w/2 - t0 - h, -w/2 - t0]
@@ -352,7 +352,7 @@ def jitter_particles(mesh: Mesh, design: Design) -> Mesh:
 def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, side_wall: float,
                 end_wall: float, strain_limit: float, centres, radius: float, size: float,
                 symmetry: bool = True, order: int = 2, strain_limit_width: float | None = None) -> Mesh:
-    """The actuator in 3D (DESIGN.md section 6), quadratic tetrahedra, lengths in mm.
+    """The actuator in 3D (docs/actuator.md, "3D"), quadratic tetrahedra, lengths in mm.
 
     Cavity [-w/2, w/2] x [-D/2, D/2] x [-t1 - cavity_length, -t1] (w width, D depth); membrane:
     the box [-w/2 - t0, w/2 + t0] x [-D/2 - t0, D/2 + t0] x [-L, 0] (L = cavity_length + 2 t1)

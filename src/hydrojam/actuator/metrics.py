@@ -1,8 +1,8 @@
-"""Actuator metrics as pure functions of node positions (DESIGN.md sections 6 and 7), and the one
+"""Actuator metrics as pure functions of node positions (docs/actuator.md, "Metrics"), and the one
 pass that measures a state with them (:func:`measure`, from the model's :class:`Gauges`).
 
 Every function takes reference positions ``X`` and current positions ``x`` as arrays of shape
-(m, 2) in mm, in the (x, z) plane of DESIGN.md section 6 (a 3D actuator's are (m, 3), (x, y, z),
+(m, 2) in mm, in the (x, z) plane of docs/decisions.md, "Geometry" (a 3D actuator's are (m, 3), (x, y, z),
 for :func:`bending_angle_3d_deg` and :func:`enclosed_volume`; the others take its (x, z) columns): x is the bending direction (the
 strain-limit layer lies on the -x side), z the actuator axis, the clamp at z = 0 and the free end
 at z = -L.
@@ -276,7 +276,7 @@ def face_rotation_deg(X_face, x_face) -> float:
 
 
 def bending_angle_deg(X_face, x_face) -> float:
-    """Bending angle theta of DESIGN.md section 7: rotation of the free-end face.
+    """Bending angle theta (docs/actuator.md, "Metrics"): rotation of the free-end face.
 
     The face rotation (``face_rotation_deg``) of the free-end face's nodes: positive toward the
     strain-limit side (-x, clockwise in the (x, z) plane), in (-180, 180].
@@ -309,7 +309,7 @@ def _best_fit_plane_axis(centred: np.ndarray) -> np.ndarray:
 
 
 def bending_angle_3d_deg(X_face, x_face) -> float:
-    """Bending angle theta [deg] of a 3D actuator (DESIGN.md section 7): the rotation about y of
+    """Bending angle theta [deg] of a 3D actuator (docs/actuator.md, "3D"): the rotation about y of
     the free-end face's best-fit plane, positive toward the strain-limit side (-x), in (-180, 180].
 
     The face's orientation is the line its best-fit plane (least-squares, SVD of the centred node
@@ -391,7 +391,7 @@ def enclosed_volume(points, triangles) -> float:
 
 
 def tip_displacement(X_face, x_face) -> tuple[float, float]:
-    """Free-end displacement of DESIGN.md section 7: the face centroid's displacement.
+    """Free-end displacement (docs/actuator.md, "Metrics"): the face centroid's displacement.
 
     The centroid is the plain mean of the face's nodes, so this is the mean of the node
     displacements (not an area-weighted centroid: with unevenly spaced nodes the two differ).
@@ -500,7 +500,7 @@ def _polyline_tangents(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def centreline_profile(X_line, x_line) -> CentrelineProfile:
-    """Tangent rotation and curvature along a centreline (DESIGN.md section 7).
+    """Tangent rotation and curvature along a centreline (docs/actuator.md, "Metrics").
 
     Tangent directions at the nodes come from the segments' chords (each the tangent at its
     segment's midpoint, up to O(h^2)), unwrapped along the line and interpolated quadratically in
@@ -779,7 +779,7 @@ def particle_volumes(gauges: Gauges, x: np.ndarray) -> np.ndarray:
 
 
 def measure(gauges: Gauges, x: np.ndarray) -> dict:
-    """The state metrics of DESIGN.md section 7 at one state, in one pass.
+    """The state metrics (docs/actuator.md, "Metrics") at one state, in one pass.
 
     One value per entry of :data:`STATE_METRICS` (names, units and meanings are defined there),
     in that order. The bending angle is the free-end face's rotation (its best-fit line in 2D;

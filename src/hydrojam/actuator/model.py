@@ -1,5 +1,5 @@
 """The actuator model: a :class:`~hydrojam.actuator.design.Design` turned into bodies, materials,
-the clamp and contact (DESIGN.md sections 4-6), and the measurements taken on a state (section 7).
+the clamp and contact (docs/actuator.md, "Model"), and the measurements taken on a state ("Metrics").
 
 Data flow: design -> geometry and mesh (gmsh, in ``actuator.geometry`` and ``fem.meshing``) ->
 :class:`ActuatorModel` (this module) -> :func:`hydrojam.actuator.simulate.simulate`. Lengths mm,
@@ -337,7 +337,28 @@ def particle_areas(model: ActuatorModel, x: np.ndarray) -> np.ndarray:
 
 
 def measure(model: ActuatorModel, x: np.ndarray) -> dict:
-    """The metrics of DESIGN.md section 7 at the nodes' positions ``x`` (n, d) [mm], as metric name
+    """The metrics (docs/actuator.md, "Metrics") at the nodes' positions ``x`` (n, d) [mm], as metric name
     -> value: :func:`hydrojam.actuator.metrics.measure` of the model's gauges, where they are
-    defined (:data:`~hydrojam.actuator.metrics.STATE_METRICS`, in that order)."""
+    defined (:data:`~hydrojam.actuator.metrics.STATE_METRICS`, in that order).
+
+    Parameters
+    ----------
+    model : ActuatorModel
+        The actuator (its mesh, gauges and design).
+    x : ndarray, shape (n, d)
+        The nodes' positions [mm] (the reference positions: the as-prepared state).
+
+    Returns
+    -------
+    dict
+        Metric name -> value in the metric's unit (the bending angle [deg], the tip's
+        displacement [mm], ...; :func:`hydrojam.actuator.metrics.metric_names`); None where a
+        metric is undefined at x, never NaN.
+
+    Raises
+    ------
+    IndexError
+        Where x has fewer nodes than the model's mesh (NumPy's indexing; x is not checked
+        otherwise).
+    """
     return measure_state(model.gauges, x)

@@ -23,7 +23,7 @@ def _outline_segments(mesh) -> np.ndarray:
     return straight_pieces(mesh.boundary_facets(), 1)
 
 
-def _mid_section(X: np.ndarray, cells: np.ndarray, length: float, fields: dict):
+def mid_section(X: np.ndarray, cells: np.ndarray, length: float, fields: dict):
     """A 3D actuator's section y = 0 as straight triangles: (triangles (k, 3) of node indices,
     body id and swelling ratio of each, outline segments (m, 2)), from its reference node
     positions X (n, 3) [mm], its tetra10 cells (c, 10), its length [mm] (the scale of the
@@ -66,7 +66,7 @@ def plot_actuator(model, state, path: str | os.PathLike) -> None:
     mesh, X, x = model.mesh, model.mesh.points, state.x
     fields = cell_fields(model, x, state.s)
     if mesh.dim == 3:
-        tris, body, swell, seg = _mid_section(X, mesh.cells, model.design.length, fields)
+        tris, body, swell, seg = mid_section(X, mesh.cells, model.design.length, fields)
         X, x = X[:, [0, 2]], x[:, [0, 2]]
     else:
         cells = mesh.cells

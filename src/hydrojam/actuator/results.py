@@ -1,4 +1,4 @@
-"""Results on disk: every file written atomically, as the run goes (DESIGN.md section 9).
+"""Results on disk: every file written atomically, as the run goes (docs/actuator.md, "Outputs").
 
 Layout of an output folder ``OUT``::
 

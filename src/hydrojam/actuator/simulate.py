@@ -1,5 +1,5 @@
 """Simulate an actuator along its stimulus path: the load-path solver on the model's energy terms,
-with the metrics measured at every accepted step (DESIGN.md sections 3, 7, 8).
+with the metrics measured at every accepted step (docs/actuator.md, "Solving").
 
 :func:`simulate` returns a :class:`SimulationResult`: the accepted states, their metrics, whether
 s = 1 was reached (if not, why, with the last converged state kept) and where the time went.
@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,11 +20,10 @@ from hydrojam.actuator.checkpoint import (ReleaseCheckpoint, ReleaseProgress, Ru
                                          save_checkpoint)
 from hydrojam.actuator.metrics import RUN_FIELDS, branch_gap, time_to_fraction
 from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, measure
-from hydrojam.actuator.stimulus import schedule_temperature
-from hydrojam.fem.linsolve import LinearSolver
-from hydrojam.fem.newton import NewtonOptions, NewtonStatus, Timings, minimize, negative_curvature
-from hydrojam.fem.path import (PathCheckpoint, PathOptions, ReleaseState, first_unstable_s, physical_residual, release,
-                               solve_path)
+from hydrojam.actuator.stimulus import KineticVolumes, schedule_temperature
+from hydrojam.fem import (LinearSolver, NewtonOptions, NewtonStatus, PathCheckpoint, PathOptions, ReleaseState, Timings,
+                          Observer, first_unstable_s, minimize, negative_curvature, physical_residual, release,
+                          solve_path)
 from hydrojam.fem.terms import TimedTerm, ViscousStabilisation, by_name, lumped_volumes
 
 #: viscous stabilisation c = STABILISATION x G_membrane / d [N/mm^3] (docs/actuator.md)
@@ -76,7 +75,7 @@ class StepState:
     time_s: float | None = None
     negative_eigenvalues: int | None = None
     """Negative eigenvalues of the physical Hessian at this state (the stabilisation left out;
-    :attr:`hydrojam.fem.path.StepRecord.negative_eigenvalues`): 0 stable, > 0 the path is
+    :attr:`hydrojam.fem.solver.path.StepRecord.negative_eigenvalues`): 0 stable, > 0 the path is
     passing an instability here; None where not checked (s = 0) or not available."""
     residual: float | None = None
     """Residual of the physics alone at this state (the stabilisation left out) [N; N/mm in 2D]:
@@ -87,14 +86,18 @@ class StepState:
 
 @dataclass
 class _Clock:
-    """Seconds and calls spent in one kind of term (a :class:`TimedTerm`'s record)."""
+    """Seconds and calls spent in one kind of term (a :class:`TimedTerm`'s record), in all and
+    by method."""
 
     seconds: float = 0.0
     calls: int = 0
+    methods: dict = field(default_factory=dict)
 
     def add(self, method: str, seconds: float) -> None:
         self.seconds += seconds
         self.calls += 1
+        spent, calls = self.methods.get(method, (0.0, 0))
+        self.methods[method] = (spent + seconds, calls + 1)
 
 
 @dataclass
@@ -118,6 +121,9 @@ class SimulationResult:
     resumed: tuple = ()
     """One record per resumption from a checkpoint (``s`` and ``state`` it went on from, the
     ``version`` of hydrojam that went on); empty for a run in one go."""
+    term_timings: dict = field(default_factory=dict)
+    """Seconds and calls of the elastic and contact terms' methods: "elastic.hessian" ->
+    (seconds, calls), ... (since the last resumption; for benchmarks)."""
 
     @property
     def final(self) -> StepState:
@@ -204,52 +210,84 @@ def simulate(
     checkpoint: str | os.PathLike | None = None,
     resume: RunCheckpoint | None = None,
     on_release: Callable[[ReleaseProgress], None] | None = None,
+    observers: Sequence[Observer] = (),
 ) -> SimulationResult:
-    """Follow the stimulus from the as-prepared state (s = 0) to the target (s = 1).
+    """Follow the stimulus from the as-prepared state (s = 0) to the target (s = 1): the load
+    path (:func:`hydrojam.fem.solve_path`) on the model's energy terms, every accepted state an
+    equilibrium of the physics, measured (:func:`~hydrojam.actuator.model.measure`) and reported.
 
-    ``on_step(state)`` runs after every accepted step (including s = 0), e.g. to write results
-    as they come; ``on_progress(s)`` after every attempt (a progress bar). Never raises on
-    non-convergence: the result says so and keeps the last converged state. ``on_release(progress)``
-    after every round of the release that it goes on from (as its checkpoint; the round that
-    ends it is followed by the final state) with
-    :class:`~hydrojam.actuator.checkpoint.ReleaseProgress`: a 3D chamber's release can take
-    hours at s = 1.
+    Parameters
+    ----------
+    model : ActuatorModel
+        The actuator (:func:`~hydrojam.actuator.model.build_model`).
+    options : PathOptions, optional
+        The load path's settings: :data:`TIMED_PATH` where the design has a ``stimulus.schedule``
+        (a time-resolved path), otherwise :data:`ACTUATOR_PATH` (the default, None).
+    on_step : callable, optional
+        ``on_step(state)`` after every accepted step (including s = 0) with its
+        :class:`StepState`, e.g. to write results as they come. A state released at s = 1
+        after the path (``options.release.each_step`` off) replaces the last one (same index,
+        passed again).
+    on_progress : callable, optional
+        ``on_progress(s)`` after every attempt (a progress bar).
+    stabilisation : float, optional
+        Viscous damping c = stabilisation x G_membrane / d [N/mm^3] of every node's motion within
+        a load step (:class:`hydrojam.fem.terms.ViscousStabilisation`), released so that every
+        reported state is an equilibrium without it; 0: none (default :data:`STABILISATION`).
+    extra_terms : tuple of EnergyTerm, optional
+        Energy terms added to the model's (e.g. a spring that blocks the tip,
+        :mod:`hydrojam.assess`), kept through the release.
+    checkpoint : str or os.PathLike, optional
+        A file (:mod:`hydrojam.actuator.checkpoint`) rewritten after every accepted step and every
+        round of a release at s = 1.
+    resume : RunCheckpoint, optional
+        A checkpoint of this model's design to go on from (its states are not passed to
+        ``on_step`` again): the same computation as a run in one go, bit for bit on one machine
+        with the same thread settings (the linear solvers' union patterns are part of it;
+        docs/actuator.md, "Checkpoints").
+    on_release : callable, optional
+        ``on_release(progress)`` after every round of a release at s = 1 that goes on
+        (:class:`~hydrojam.actuator.checkpoint.ReleaseProgress`): a 3D chamber's can take hours.
+    observers : sequence of Observer, optional
+        Told what the solver does (:mod:`hydrojam.fem.solver.events`: every linear solve,
+        Newton direction, line search, iteration, release round and accepted step); none by
+        default, at no cost.
 
-    ``stabilisation``: viscous damping c = stabilisation x G_membrane / d [N/mm^3] of every
-    node's motion within a load step (:class:`hydrojam.fem.terms.ViscousStabilisation`), released at
-    s = 1 so that the final state is an equilibrium without it (0: none). The final state
-    replaces the last stabilised one in ``states`` (same index, passed to ``on_step`` again).
+    Returns
+    -------
+    SimulationResult
+        The accepted states from s = 0 with their metrics, whether s = 1 was reached
+        (``converged``; if not, ``message`` says where and why, and the last converged state is
+        kept), the Newton iterations, the rejected attempts and where the time went [s].
 
-    ``extra_terms``: energy terms added to the model's (e.g. a spring that blocks the tip,
-    :mod:`hydrojam.assess`), kept through the release.
-
-    ``checkpoint``: a file (:mod:`hydrojam.actuator.checkpoint`) rewritten after every accepted
-    step and every round of the release; ``resume``: a checkpoint of this model's design to go on
-    from (its states are not passed to ``on_step`` again). A resumed run is the same computation
-    as a run in one go, bit for bit on one machine with the same thread settings: the linear
-    solvers' union patterns are part of the checkpoint (docs/actuator.md, "Checkpoints").
-
-    With ``stimulus.schedule`` in the design the path is time-resolved (built by
-    :func:`~hydrojam.actuator.model.build_model`) and
-    ``options`` defaults to :data:`TIMED_PATH`, otherwise to :data:`ACTUATOR_PATH`.
+    Raises
+    ------
+    RuntimeError
+        Only for a solver fault (non-finite positions), which the solver's own checks rule out:
+        a path that cannot converge does not raise.
     """
     if options is None:
         options = TIMED_PATH if model.path.timed else ACTUATOR_PATH
     run = _Run(model, options, stabilisation, extra_terms, on_step, checkpoint, resume)
+    # a timed path's kinetic volumes start each step where the last accepted one ended
+    kinetics = [t.controller for t in run.problem.terms(0.0)
+                if isinstance(getattr(t, "controller", None), KineticVolumes)] if model.path.timed else []
+    watching = (*kinetics, *observers)
 
     def attempt(s, ds, res):
         if on_progress is not None:
             on_progress(float(s - ds) if not res.converged else float(s))
 
     res = solve_path(run.problem, options, callback=run.on_accepted, on_attempt=attempt,
-                     resume=None if resume is None else resume.path, on_checkpoint=run.on_path_checkpoint)
+                     resume=None if resume is None else resume.path, on_checkpoint=run.on_path_checkpoint,
+                     observers=watching)
     if not np.all(np.isfinite(res.x)):  # pragma: no cover - the solver never accepts such a state
         raise RuntimeError("the solver returned non-finite positions")
     released = run.stab is None or options.release.each_step
     newton_iterations = res.newton_iterations
     release_seconds, rounds = 0.0, []
     if run.stab is not None and res.converged and not options.release.each_step:
-        its, released, rounds, release_seconds = _release_at_end(run, res, resume, on_release)
+        its, released, rounds, release_seconds = _release_at_end(run, res, resume, on_release, watching)
         newton_iterations += its
     return run.result(res, released, newton_iterations, release_seconds, rounds)
 
@@ -304,7 +342,7 @@ class _Run:
         mu, T = model.stimulus(s)
         if residual is None:  # the physics alone at x: every reported state is an equilibrium of it
             residual = physical_residual(self.terms(s), x, self.problem.free_mask(), self.problem.force_scale,
-                                         options.newton, options.unphysical_terms)
+                                         options.newton.rtol, options.unphysical_terms, options.newton.residual_floor)
         st = StepState(len(self.states), float(s), float(mu), float(T), np.array(x, dtype=float),
                        measure(model, x), int(iterations), time.perf_counter() - self.t_start, model.path.time(s),
                        negative, float(residual[0]), float(residual[1]))
@@ -329,7 +367,7 @@ class _Run:
         self.save()
 
     def on_accepted(self, s: float, x: np.ndarray, rec) -> None:
-        """An accepted load step (:class:`~hydrojam.fem.path.StepRecord` ``rec``): the energy the
+        """An accepted load step (:class:`~hydrojam.fem.solver.path.StepRecord` ``rec``): the energy the
         stabilisation held back, and the state reported."""
         stab, options = self.stab, self.options
         if stab is not None:
@@ -363,12 +401,14 @@ class _Run:
                               "max_energy_ratio": self.ratio, "released": released,
                               "release_rounds": [{"scale": sc, "iterations": n, "converged": ok}
                                                  for sc, n, ok in rounds]}
+        terms = {f"{name}.{method}": spent for name, clock in self._clocks.items()
+                 for method, spent in clock.methods.items()}
         return SimulationResult(self.model, self.states, res.converged, message, wall, newton_iterations,
-                                res.rejected_steps, timings, stabilisation_info, self.resumed)
+                                res.rejected_steps, timings, stabilisation_info, self.resumed, terms)
 
 
 def _release_at_end(run: _Run, res, resume: RunCheckpoint | None,
-                    on_release: Callable[[ReleaseProgress], None] | None):
+                    on_release: Callable[[ReleaseProgress], None] | None, observers: tuple = ()):
     """The stabilisation of a path that kept it on (``release.each_step`` off) released at s = 1:
     the released state replaces the last one. Returns (Newton iterations, released, rounds,
     seconds)."""
@@ -383,12 +423,12 @@ def _release_at_end(run: _Run, res, resume: RunCheckpoint | None,
             on_release(ReleaseProgress(len(ck.rounds), ck.iterations, ck.scale, seconds))
 
     x, its, released, rounds = _release(problem, run.stab, res.x, options, run.terms, res.timings,
-                                        resume=before, on_round=on_round)
+                                        resume=before, on_round=on_round, observers=observers)
     negative = run.states[-1].negative_eigenvalues
     if options.stability_check:  # the released state is the one reported: check it
         physical = [t for t in run.terms(1.0) if t.name not in options.unphysical_terms]
-        negative = negative_curvature(physical, x, problem.free_mask(), LinearSolver(options.newton.linear_solver),
-                                      options.newton)
+        negative = negative_curvature(physical, x, problem.free_mask(),
+                                      LinearSolver(options.newton.linear_solver, observers), options.newton)
     release_seconds = time.perf_counter() - t_release
     run.states.pop()
     run.record(1.0, x, its, negative)
@@ -396,11 +436,13 @@ def _release_at_end(run: _Run, res, resume: RunCheckpoint | None,
 
 
 def _release(problem, stab, x, options: PathOptions, terms, timings: Timings,
-             resume: ReleaseCheckpoint | None = None, on_round: Callable[[ReleaseCheckpoint], None] | None = None):
-    """Take the stabilisation off at s = 1 (:func:`hydrojam.fem.path.release`, ``options.release``),
+             resume: ReleaseCheckpoint | None = None, on_round: Callable[[ReleaseCheckpoint], None] | None = None,
+             observers: tuple = ()):
+    """Take the stabilisation off at s = 1 (:func:`hydrojam.fem.solver.release.release`, ``options.release``),
     for a path that did not release it at every step. Returns (x, Newton iterations, released,
     rounds); ``on_round(checkpoint)`` after every round, ``resume``: such a checkpoint."""
-    solver = LinearSolver(options.newton.linear_solver)  # one for all rounds: each PARDISO handle's set-up costs
+    # one for all rounds: each PARDISO handle's set-up costs
+    solver = LinearSolver(options.newton.linear_solver, observers)
     state = None
     if resume is not None:
         state = ReleaseState(resume.x, resume.iterations, resume.scale, resume.failed, resume.rounds,
@@ -413,6 +455,6 @@ def _release(problem, stab, x, options: PathOptions, terms, timings: Timings,
                                        st.timings))
 
     rel = release(terms(1.0), stab, x, problem.free_mask(), problem.force_scale, options.newton, solver,
-                  options.release, 1.0, options.unphysical_terms, state, round_done)
+                  options.release, 1.0, options.unphysical_terms, state, round_done, observers)
     timings.add(rel.timings)
     return rel.x, rel.iterations, rel.released, rel.rounds

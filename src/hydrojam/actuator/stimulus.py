@@ -1,5 +1,5 @@
 """The stimulus path: how (mu, T) move from the as-prepared state to the target as the load
-parameter s goes from 0 to 1 (DESIGN.md section 3).
+parameter s goes from 0 to 1 (docs/actuator.md, "Stimulus path").
 
 Both paths move (mu, T) along the straight segment from (mu0, T0) to (mu_target, T_target); they
 differ only in how fast. ``"linear"``: the position on the segment is s. ``"swelling"``
@@ -319,10 +319,12 @@ class KineticVolumes:
     holds exactly exp<ln J>(t)): it follows the kinetics exactly. As t - t0 grows the stiffness
     vanishes: the end of a long hold is the drained equilibrium, the untimed answer.
 
-    The step's start is recognised from the volumes passed at each ``begin_step``: volumes that
-    changed since the previous call mean that the previous attempt (at its time) was accepted;
-    unchanged volumes, a retry of the same step with a smaller increment; a call at the same
-    time as the previous one (the release of the stabilisation at s = 1), the same step again.
+    A step starts where the last accepted one ended: the solver says so (:meth:`step_accepted`,
+    or :meth:`on_step_accepted` as an observer of the load path,
+    :class:`~hydrojam.fem.solver.events.StepAccepted`), and the next ``begin_step`` takes its
+    volumes and the time it was accepted at as the new start, once it is at a later time. Any
+    other ``begin_step`` (a retry with a smaller increment, a round of a release, the release of
+    the stabilisation at s = 1 after the last step) stays within the step that started last.
     """
 
     def __init__(self, path: TimedStimulusPath, modulus: float):
@@ -330,11 +332,21 @@ class KineticVolumes:
         self.modulus = float(modulus)
         self._t = 0.0
         self._start: tuple[float, np.ndarray] | None = None
-        self._last: tuple[float, np.ndarray] | None = None
+        self._accepted: float | None = None
 
     def set_time(self, t: float) -> None:
         """The time [s] the next load step ends at."""
         self._t = float(t)
+
+    def step_accepted(self) -> None:
+        """The step to the time last set (:meth:`set_time`) was accepted: the next step starts
+        from its state at that time."""
+        self._accepted = self._t
+
+    def on_step_accepted(self, event) -> None:
+        """The load path accepted a step (an :class:`~hydrojam.fem.solver.events.Observer`'s
+        hook): :meth:`step_accepted`."""
+        self.step_accepted()
 
     def mean_log_swelling(self, t: float) -> float:
         """The free particle's <ln J> at time t [s] (linear between the path's samples)."""
@@ -346,9 +358,8 @@ class KineticVolumes:
         v = np.array(volumes, dtype=float)
         if self._start is None:
             self._start = (self.path.time(0.0), v)
-        elif self._last is not None and not np.array_equal(v, self._last[1]) and self._t > self._last[0]:
-            self._start = (self._last[0], v)
-        self._last = (self._t, v)
+        elif self._accepted is not None and self._t > self._accepted:
+            self._start, self._accepted = (self._accepted, v), None
         t0, v0 = self._start
         tau = self.path.time_constant_s
         dt = max(self._t - t0, _MIN_STEP_TAU * tau)

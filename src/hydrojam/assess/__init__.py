@@ -2,8 +2,12 @@
 vacuum-jamming baseline. ``assess(design, loads)`` gives the numbers,
 ``write_report`` the report; the pieces live in loading, chamber, confinement and design_map."""
 
-from hydrojam.assess.assessment import Assessment, assess
-from hydrojam.assess.report import write_report
-from hydrojam.assess.spec import AssessError, Loads, load_loads, loads_from_dict
+from hydrojam._lazy import lazy_api
 
-__all__ = ["AssessError", "Assessment", "Loads", "assess", "load_loads", "loads_from_dict", "write_report"]
+_PUBLIC = {
+    "hydrojam.assess.assessment": ["Assessment", "assess", "check_assessable"],
+    "hydrojam.assess.report": ["write_report"],
+    "hydrojam.assess.spec": ["AssessError", "Loads", "load_loads", "loads_from_dict"],
+    "hydrojam.assess.design_map": ["design_map", "map_study", "MAP_VALUES", "MODULUS", "THICKNESS"],
+}
+__all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

@@ -16,8 +16,7 @@ from hydrojam.assess.loading import Structure, tip_compliance
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.contact import Contact
 from hydrojam.fem.elements import element_for_meshio_type
-from hydrojam.fem.newton import minimize
-from hydrojam.fem.path import PathOptions
+from hydrojam.fem import PathOptions, minimize, release
 from hydrojam.fem.problem import fixed
 from hydrojam.fem.terms import CentroidSpring, PressureTerm, ScaledTerm, ViscousStabilisation, lumped_volumes
 from hydrojam.materials.energies import Material
@@ -142,7 +141,8 @@ def vacuum_jamming(model: ActuatorModel, pressure: float, particles: Material | 
     """Jam the unactuated chamber (particles at (mu0, T0), or ``particles``) by a vacuum: the
     pressure difference on the outer surface ramped from 0 to ``pressure`` [MPa]
     (:func:`vacuum_term`), with the actuation's viscous stabilisation, released at the end (damping
-    lowered 10x per round down to none) so that the state is an equilibrium without it.
+    lowered 10x per converged round, :func:`hydrojam.fem.release`) until the state is an equilibrium
+    without it.
 
     Where the walls give way before the target (the membrane folds into the voids between round
     particles and a square cavity and meets itself; the walls' self-contact is not modelled,
@@ -185,19 +185,14 @@ def vacuum_jamming(model: ActuatorModel, pressure: float, particles: Material | 
 
 
 def _release(held: Structure, stab: ViscousStabilisation, x: np.ndarray, options: PathOptions):
-    """Take the stabilisation off (damping 0.1, 0.01, 0.001 of the path's, then none), each
-    round a minimisation from the last; returns (x, (message, Newton iterations)) with x None
-    if a round fails or the end state is not stable (tip compliance <= 0)."""
-    free, its = held.free_mask(), 0
-    for scale in (0.1, 0.01, 0.001, 0.0):
-        stab.scale = scale
-        stab.begin_step(x)
-        terms = [*held.terms, stab] if scale else list(held.terms)
-        r = minimize(terms, x, free, held.force_scale, options.newton)
-        its += r.iterations
-        if not r.converged:
-            return None, (r.message, its)
-        x = r.x
-    if not tip_compliance(held, x) > 0:
-        return None, ("not stable", its)
-    return x, ("converged", its)
+    """Take the stabilisation off by the load path's release (:func:`hydrojam.fem.release`,
+    ``options.release``: proximal rounds from its present scale until the state is an
+    equilibrium without it); returns (x, (message, Newton iterations)) with x None if it cannot
+    be released or the end state is not stable (tip compliance <= 0)."""
+    rel = release([*held.terms, stab], stab, x, held.free_mask(), held.force_scale, options.newton,
+                  options=options.release, unphysical=(stab.name,))
+    if not rel.released:
+        return None, (f"the stabilisation could not be released in {len(rel.rounds)} rounds", rel.iterations)
+    if not tip_compliance(held, rel.x) > 0:
+        return None, ("not stable", rel.iterations)
+    return rel.x, ("converged", rel.iterations)

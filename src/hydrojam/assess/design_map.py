@@ -46,14 +46,14 @@ def map_study(base: Design, thicknesses, shear_moduli) -> Study:
     valid design (a modulus above the field's range, a wall too thin for the mesh)."""
     from pydantic import ValidationError
 
-    from hydrojam.study.spec import StudyError, _validation_message
+    from hydrojam.study.spec import StudyError, validation_message
 
     try:
         return Study(name="design_map", base=base, sweeps=[SweepSpec(
             name="membrane", vary={THICKNESS: [float(t) for t in thicknesses],
                                    MODULUS: [float(g) for g in shear_moduli]})])
     except ValidationError as err:
-        raise StudyError(_validation_message(err, Study, "")) from None
+        raise StudyError(validation_message(err, Study, "")) from None
 
 
 def design_map(base: Design, thicknesses, shear_moduli, out: str | os.PathLike, workers: int | None = None,

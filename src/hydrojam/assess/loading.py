@@ -18,9 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from hydrojam.fem.linsolve import LinearSolver
-from hydrojam.fem.newton import NewtonOptions
-from hydrojam.fem.path import PathOptions, solve_path
+from hydrojam.fem import LinearSolver, NewtonOptions, PathOptions, solve_path
 from hydrojam.fem.problem import Dirichlet, Problem
 from hydrojam.fem.terms import EnergyTerm, face_weights, resultant_load
 
@@ -64,7 +62,7 @@ class Structure:
 
     def load(self, x0: np.ndarray, ramped, options: PathOptions = LOAD_PATH):
         """Solve from the equilibrium x0 (n, d) with ``ramped(s)`` (a list of terms added at load
-        parameter s in [0, 1]); returns the load path's result (:class:`~hydrojam.fem.path.PathResult`)."""
+        parameter s in [0, 1]); returns the load path's result (:class:`~hydrojam.fem.solver.path.PathResult`)."""
         x0 = np.asarray(x0, dtype=float)
         problem = Problem(x0, lambda s: [*self.terms, *ramped(s)], list(self.dirichlet), self.force_scale)
         return solve_path(problem, options)

@@ -8,7 +8,7 @@ A problem is the positions, a function of the load parameter s giving the terms,
 Dirichlet conditions; :func:`solve_path` follows s from 0 to 1.
 
 The names below are the public API; each lives in the module of its concept
-(``hydrojam.fem.newton``, ``hydrojam.fem.path``, ...). They are loaded on first use, so
+(``hydrojam.fem.solver.newton``, ``hydrojam.fem.solver.path``, ...). They are loaded on first use, so
 ``import hydrojam.fem`` does not start gmsh or the IPC Toolkit.
 
 Examples
@@ -42,19 +42,25 @@ from hydrojam._lazy import lazy_api
 
 _PUBLIC = {
     "hydrojam.fem.elements": ["ReferenceElement", "element_for_meshio_type", "quadrature", "physical_gradients",
-                              "facet_measure"],
+                              "facet_measure", "ELEMENTS", "straight_pieces"],
     "hydrojam.fem.mesh": ["Mesh", "merge"],
     "hydrojam.fem.meshing": ["rectangle", "disk", "box", "ball", "bonded_rectangles", "disks", "annulus",
-                             "shell_sector", "gmsh_session", "extract_mesh"],
+                             "shell_sector", "gmsh_session", "extract_mesh", "RANDOM_SEED", "add_groups", "bounding_box", "generate", "set_mesh_size"],
     "hydrojam.fem.assembly": ["Block", "Solid"],
     "hydrojam.fem.terms": ["DampedTerm", "EnergyTerm", "LinearTerm", "ScaledTerm", "TimedTerm", "ViscousStabilisation",
-                           "PressureTerm", "CentroidSpring", "body_load", "surface_load", "resultant_load"],
+                           "PressureTerm", "CentroidSpring", "body_load", "surface_load", "resultant_load", "by_name", "face_weights", "lumped_volumes"],
     "hydrojam.fem.volume": ["VolumeTerm", "LocalVolumeTerm"],
     "hydrojam.fem.contact": ["Contact", "ContactSettings", "default_settings"],
-    "hydrojam.fem.linsolve": ["LinearSolver", "LinearSolveError"],
     "hydrojam.fem.problem": ["Problem", "Dirichlet", "fixed", "prescribed"],
-    "hydrojam.fem.newton": ["NewtonOptions", "NewtonResult", "NewtonStatus", "Timings", "minimize",
-                            "negative_curvature", "lowest_mode"],
-    "hydrojam.fem.path": ["PathOptions", "PathResult", "StepRecord", "PathCheckpoint", "solve_path"],
+    "hydrojam.fem.solver.events": ["Observer", "LinearSolve", "Direction", "LineSearch", "Iteration",
+                                   "StepAccepted", "ReleaseRound"],
+    "hydrojam.fem.solver.linsolve": ["LinearSolver", "LinearSolveError"],
+    "hydrojam.fem.solver.total": ["sum_energy", "physical_residual"],
+    "hydrojam.fem.solver.newton": ["NewtonOptions", "NewtonResult", "NewtonStatus", "Timings", "minimize"],
+    "hydrojam.fem.solver.stability": ["negative_curvature", "lowest_mode", "settle", "Settled"],
+    "hydrojam.fem.solver.release": ["ReleaseOptions", "ReleaseState", "ReleaseResult", "release"],
+    "hydrojam.fem.solver.path": ["PathOptions", "PathResult", "StepRecord", "PathCheckpoint", "solve_path",
+                                 "first_unstable_s"],
+    "hydrojam.fem._env": ["check_environment", "THREAD_VARIABLES", "SWITCH_VARIABLES"],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

@@ -142,7 +142,7 @@ def element_matrices_psd(A, dNdX, dV, slots, data, out, dims):  # pragma: no cov
         _deposit(_project_psd(K), e, slots, data, out)
 
 
-# -- the linear solver's bookkeeping (fem/linsolve.py) ------------------------------------------
+# -- the linear solver's bookkeeping (fem/solver/linsolve.py) ------------------------------------------
 
 
 @numba.njit(cache=True)

@@ -1,4 +1,4 @@
-"""Intersection-free contact between bodies through IPC (DESIGN.md section 5).
+"""Intersection-free contact between bodies through IPC (docs/contact.md).
 
 Every call to the IPC Toolkit (``ipctk``, pinned 1.6.1) lives in this module, so an upgrade is one
 file. Contact is an energy term: a smooth log barrier on the distance between boundary primitives

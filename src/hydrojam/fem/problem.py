@@ -1,4 +1,4 @@
-"""What the solver solves: Dirichlet conditions and the load-path problem (DESIGN.md section 8).
+"""What the solver solves: Dirichlet conditions and the load-path problem (docs/solver.md).
 
 Dirichlet conditions eliminate DOFs; a :class:`Problem` gives the energy terms at every load
 parameter s in [0, 1] (see :mod:`hydrojam.fem.terms` for the term protocol).

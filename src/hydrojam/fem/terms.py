@@ -1,4 +1,4 @@
-"""The one protocol of everything the solver minimises: an *energy term* (DESIGN.md section 8).
+"""The one protocol of everything the solver minimises: an *energy term* (docs/solver.md, "The energy and its terms").
 
 A term is a subclass of :class:`EnergyTerm`. For nodal positions ``x`` of shape (n_nodes, d)
 [mm] it gives
@@ -20,7 +20,7 @@ and may override these optional parts, whose defaults are what a term without th
 * ``hessian_pattern(x) -> None``: a sparsity pattern (n*d, n*d) that holds this term's Hessian
   at x and at the states near x, where the Hessian's own pattern changes from state to state
   (contact: every coupling of the pairs within reach); None: the Hessian's own pattern. The
-  solver hands it to the linear solver as a hint (:meth:`hydrojam.fem.linsolve.LinearSolver.solve`);
+  solver hands it to the linear solver as a hint (:meth:`hydrojam.fem.solver.linsolve.LinearSolver.solve`);
   no result depends on it;
 * ``fallback_projection = False``: True asks the solver to re-assemble this term's Hessian with
   ``project=True`` when the exact Hessian gives no descent, before damping the whole system;
@@ -90,7 +90,7 @@ class EnergyTerm(abc.ABC):
 
 @runtime_checkable
 class DampedTerm(Protocol):
-    """A term whose weight the load path adapts (:attr:`hydrojam.fem.path.PathOptions.damped_term`,
+    """A term whose weight the load path adapts (the term named "stabilisation" of a load path,
     a :class:`ViscousStabilisation`): ``scale`` [-] multiplies its energy, 0 switches it off."""
 
     name: str

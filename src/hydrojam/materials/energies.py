@@ -1,4 +1,4 @@
-"""Hyperelastic energy densities: the PNIPAM hydrogel and the elastomers (DESIGN.md sections 3-4).
+"""Hyperelastic energy densities: the PNIPAM hydrogel and the elastomers (docs/model.md).
 
 A material maps deformation gradients ``F`` of shape ``(..., d, d)`` (d = 2: plane strain, d = 3)
 to the stored energy per reference volume ``W`` [MPa = mJ/mm^3], the first Piola-Kirchhoff stress
@@ -478,7 +478,7 @@ class Yeoh(_Frozen, _InvariantMaterial):
 
 
 class HydrogelParams(_Frozen):
-    """Constants of the temperature-sensitive gel (DESIGN.md section 3); the stimulus is separate.
+    """Constants of the temperature-sensitive gel (docs/model.md, "Hydrogel"); the stimulus is separate.
 
     Symbols: n = N nu (``n``), lambda0 (``lambda0``), T0 (``T0``), chi(T, J) = A0 + B0 T +
     (A1 + B1 T)/J. The defaults are the paper's PNIPAM gel; the stress unit is k_B T / nu = 40 MPa.
@@ -527,8 +527,8 @@ def _mixing_g(chi0, chi1, mu, iJ, l1):
 
 
 def mixing_g(params: HydrogelParams, J, mu: float, T: float):
-    """g(J) = ln(1 - 1/J) + 1/J + (chi0 - chi1)/J^2 + 2 chi1/J^3 - mu [k_B T / nu] (DESIGN.md
-    section 3): dw/dJ without the network term, J the volume ratio to the dry network."""
+    """g(J) = ln(1 - 1/J) + 1/J + (chi0 - chi1)/J^2 + 2 chi1/J^3 - mu [k_B T / nu] (docs/model.md,
+    "Swelling analysis"): dw/dJ without the network term, J the volume ratio to the dry network."""
     chi0, chi1 = params.chi_coefficients(T)
     iJ = 1.0 / np.asarray(J, dtype=float)
     return _mixing_g(chi0, chi1, mu, iJ, np.log1p(-iJ))

@@ -1,4 +1,4 @@
-"""Material-point swelling of the PNIPAM gel: free and constrained equilibria (DESIGN.md section 3).
+"""Material-point swelling of the PNIPAM gel: free and constrained equilibria (docs/model.md, "Swelling analysis").
 
 Stretches here are measured from the *dry* network (as in the paper's equations); ``stretch_rel``
 divides by lambda0 to give the stretch from the as-prepared state. Chemical potentials are in

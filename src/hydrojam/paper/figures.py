@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 from hydrojam._io import atomic_path
 from hydrojam.actuator.metrics import centreline_points
 from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY, centreline_x
-from hydrojam.actuator.plots import _mid_section
+from hydrojam.actuator.plots import mid_section
 from hydrojam.fem.elements import straight_pieces
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, without_result
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
@@ -57,7 +57,7 @@ def _drawing(mesh, source: str = "final.vtu") -> _Drawing:
 
     :func:`hydrojam.actuator.results.write_vtu` writes the reference points and a ``displacement`` field:
     the deformed points are their sum and the outline is the reference points' bounding box
-    (the actuator is a rectangle, DESIGN.md section 6). Without a displacement field the points
+    (the actuator is a rectangle, docs/decisions.md, "Geometry"). Without a displacement field the points
     are taken as deformed and no outline is drawn. A 3D actuator (quadratic tetrahedra, the half
     model mirrored) is drawn as its section y = 0 (:func:`_section_y0`); the last item says so."""
     body_data = mesh.cell_data.get("body_id")
@@ -98,9 +98,9 @@ def _drawing(mesh, source: str = "final.vtu") -> _Drawing:
 def _section_y0(points: np.ndarray, cells: np.ndarray, body: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The section y = 0 of a 3D actuator's quadratic tetrahedra in reference ``points`` (n, 3)
     [mm]: straight triangles (k, 3) of node indices and their body ids, as ``final.png`` draws it
-    (:func:`hydrojam.actuator.plots._mid_section`, given the file's mesh)."""
+    (:func:`hydrojam.actuator.plots.mid_section`, given the file's mesh)."""
     fields = {"body_id": body, "swelling_ratio": np.zeros(len(body))}
-    tris, bodies, _, _ = _mid_section(points, cells, float(np.ptp(points[:, 2])) or 1.0, fields)
+    tris, bodies, _, _ = mid_section(points, cells, float(np.ptp(points[:, 2])) or 1.0, fields)
     return tris, bodies
 
 

@@ -8,14 +8,14 @@ from __future__ import annotations
 from hydrojam._lazy import lazy_api
 
 _PUBLIC = {
-    "hydrojam.study.spec": ['Study', 'StudyError', 'SweepSpec', 'Point', 'load_study', 'study_from_dict', 'write_study', 'design_key'],
+    "hydrojam.study.spec": ['Study', 'StudyError', 'SweepSpec', 'Point', 'load_study', 'study_from_dict', 'write_study', 'design_key', 'validation_message'],
     "hydrojam.study.sweep": ['run_sweep', 'PointOutcome', 'SchedulerError'],
-    "hydrojam.study.table": ['SweepTable', 'state_tables'],
+    "hydrojam.study.table": ['SweepTable', 'state_tables', 'run_states'],
     "hydrojam.study.states": ['STATES', 'state_of'],
-    "hydrojam.study.cache": ['PointStatus'],
-    "hydrojam.study.replicas": ['run_replicas', 'replica_study', 'ReplicaSummary', 'summarise'],
+    "hydrojam.study.cache": ['PointStatus', 'ROW_STATUSES', 'point_progress'],
+    "hydrojam.study.replicas": ['run_replicas', 'replica_study', 'ReplicaSummary', 'summarise', 'REPLICA_STUDY'],
     "hydrojam.study.spread": ['Spread', 'spread'],
-    "hydrojam.study.status": ['folder_status', 'FolderStatus', 'RunStatus', 'StatusError'],
+    "hydrojam.study.status": ['folder_status', 'FolderStatus', 'RunStatus', 'StatusError', 'current_state'],
     "hydrojam.study.snapshot": ['write_snapshots', 'Snapshot'],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

@@ -35,12 +35,12 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator, model_validator
 
 from hydrojam._io import read_toml, write_text_atomic
-from hydrojam._validation import _short, explain_error, submodel
+from hydrojam._validation import short_repr, explain_error, submodel
 from hydrojam.actuator.design import (
     Design,
     DesignError,
-    _merge,
-    _toml,
+    merge_value,
+    toml_value,
     default_design,
     design_from_dict,
     load_design,
@@ -198,7 +198,7 @@ def _point_design(base: Design, values: dict[str, Any]) -> Design:
     """The base design with the dotted values applied (derived cavity sizes follow), validated."""
     data = base.model_dump(exclude_none=True)
     for key, value in values.items():
-        _merge(data, key.split("."), value)
+        merge_value(data, key.split("."), value)
     return design_from_dict(data)
 
 
@@ -262,7 +262,7 @@ class Study(BaseModel):
         try:
             return Study(name=self.name, base=with_replicas(self.base, count), sweeps=self.sweeps)
         except ValidationError as err:
-            raise StudyError(_validation_message(err, Study, "")) from None
+            raise StudyError(validation_message(err, Study, "")) from None
 
     def varied_fields(self) -> list[str]:
         """The dotted fields varied anywhere in the study, in order of first appearance."""
@@ -272,7 +272,7 @@ class Study(BaseModel):
 # -------------------------------------------------------------------- reading
 
 
-def _validation_message(err: ValidationError, model: type[BaseModel], prefix: str) -> str:
+def validation_message(err: ValidationError, model: type[BaseModel], prefix: str) -> str:
     """``prefix`` and the one-line message for err's first error (pydantic): the field and its
     allowed range, as every refusal of a study or sweep file reads."""
     e = err.errors()[0]
@@ -281,7 +281,7 @@ def _validation_message(err: ValidationError, model: type[BaseModel], prefix: st
         # our validators' messages already start with the field they are about
         msg = e["msg"].removeprefix("Value error, ").removeprefix("Assertion error, ")
     elif loc and loc[0] == "vary" and len(loc) > 1:
-        msg = f"vary.{loc[1]}: expected a list of numbers, strings or booleans (got {_short(e.get('input'))})"
+        msg = f"vary.{loc[1]}: expected a list of numbers, strings or booleans (got {short_repr(e.get('input'))})"
     else:
         msg = explain_error(err, model)
     return f"{prefix}{msg}"
@@ -301,7 +301,7 @@ def _sweep_from_dict(raw: Any, i: int) -> SweepSpec:
     try:
         return SweepSpec.model_validate(raw, strict=True)
     except ValidationError as err:
-        raise StudyError(_validation_message(err, SweepSpec, f"{label}: ")) from None
+        raise StudyError(validation_message(err, SweepSpec, f"{label}: ")) from None
 
 
 def study_from_dict(data: dict, root: str | os.PathLike | None = None) -> Study:
@@ -348,7 +348,7 @@ def study_from_dict(data: dict, root: str | os.PathLike | None = None) -> Study:
             raise StudyError(f"design: expected a table of design keys, got {type(overrides).__name__}")
         merged = base.model_dump(exclude_none=True)
         for key, value in overrides.items():
-            _merge(merged, [key], value)
+            merge_value(merged, [key], value)
         try:
             base = design_from_dict(merged)
         except DesignError as err:
@@ -360,7 +360,7 @@ def study_from_dict(data: dict, root: str | os.PathLike | None = None) -> Study:
     try:
         return Study(name=name, base=base, sweeps=sweeps)
     except ValidationError as err:
-        raise StudyError(_validation_message(err, Study, "")) from None
+        raise StudyError(validation_message(err, Study, "")) from None
 
 
 def load_study(path: str | os.PathLike) -> Study:
@@ -414,9 +414,9 @@ def study_to_toml(study: Study) -> str:
     """
     text = tomli_w.dumps({"name": study.name, "design": study.base.model_dump(exclude_none=True)})
     for sweep in study.sweeps:
-        lines = ["", "[[sweep]]", f"name = {_toml(sweep.name)}", "", "[sweep.vary]"]
+        lines = ["", "[[sweep]]", f"name = {toml_value(sweep.name)}", "", "[sweep.vary]"]
         for key, values in sweep.vary.items():
-            lines.append(f"{_toml(key) if '.' in key else key} = [{', '.join(_toml(v) for v in values)}]")
+            lines.append(f"{toml_value(key) if '.' in key else key} = [{', '.join(toml_value(v) for v in values)}]")
         text += "\n".join(lines) + "\n"
     return _HEADER + "\n" + text
 

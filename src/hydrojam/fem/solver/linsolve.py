@@ -13,13 +13,14 @@ from __future__ import annotations
 import ctypes
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from hydrojam.fem._env import flag, positive_int
+from hydrojam.fem.solver.events import LinearSolve, Observer, notify
 
 
 class LinearSolveError(RuntimeError):
@@ -117,6 +118,8 @@ class _Pardiso:
         solution in double (:meth:`LinearSolver.solve`)."""
         self._ps.iparm[27] = int(single)
         self._refinement = int(self._ps.iparm[7])  # iparm(8): pardisoinit's, or the settings'
+        self.calls: list | None = None
+        """Where not None, each call is appended as (phase, matrix type, seconds, failed)."""
         self._dense = False  # whether the pattern last analysed is dense
         self._factorised: tuple | None = None  # (data, ia, ja) of the last factorisation
         self.analysis_kept = False
@@ -193,7 +196,19 @@ class _Pardiso:
         return self._call(33, data, ia, ja, np.ascontiguousarray(b, dtype=self._dtype)).astype(np.float64, copy=False)
 
     def _call(self, phase: int, data: np.ndarray, ia: np.ndarray, ja: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """PARDISO's ``phase`` on this handle: the solution x (phases with a solve)."""
+        """PARDISO's ``phase`` on this handle: the solution x (phases with a solve); each call
+        logged in :attr:`calls` where that is a list."""
+        if self.calls is None:
+            return self._pardiso_call(phase, data, ia, ja, b)
+        t0, failed = time.perf_counter(), True
+        try:
+            x = self._pardiso_call(phase, data, ia, ja, b)
+            failed = False
+            return x
+        finally:
+            self.calls.append((phase, "Cholesky" if self.mtype == 2 else "LDL^T", time.perf_counter() - t0, failed))
+
+    def _pardiso_call(self, phase: int, data: np.ndarray, ia: np.ndarray, ja: np.ndarray, b: np.ndarray) -> np.ndarray:
         ps = self._ps
         n = len(ia) - 1
         x = np.zeros_like(b)
@@ -326,12 +341,19 @@ class LinearSolver:
     refinement_steps: int = 6
     """The most refinement steps (substitutions) a single-precision solution takes."""
 
-    def __init__(self, method: str = "auto"):
+    def __init__(self, method: str = "auto", observers: Sequence[Observer] = ()):
         if method not in ("auto", "pardiso", "scipy"):
             raise ValueError(f"linear solver must be 'auto', 'pardiso' or 'scipy' (got {method!r})")
         if method == "auto":
             method = "pardiso" if _pardiso_available() else "scipy"
         self.method = method
+        self.observers = tuple(observers)
+        """Observers of every solve and resolve (:class:`~hydrojam.fem.solver.events.LinearSolve`)."""
+        self.log: list | None = None
+        """Where not None, every solve's and resolve's :class:`~hydrojam.fem.solver.events.LinearSolve`
+        is appended to it too (Newton collects the solves of a direction so while it has observers)."""
+        self._watch: list | None = None  # PARDISO's calls of the solve under way, while watched
+        self._split = [0.0, 0.0]  # its pattern bookkeeping and refinement seconds, while watched
         self.seconds = 0.0
         self.calls = 0
         self.analyses = 0
@@ -369,9 +391,13 @@ class LinearSolver:
         if not K.has_canonical_format:  # duplicates or unsorted: sum them as triu's COO route does
             K = sp.triu(K, format="csr")
             K.sort_indices()
+        t0 = time.perf_counter() if self._watch is not None else 0.0
         pattern, data = self._on_union_pattern(self._gather(K), K, reach)
+        if self._watch is not None:
+            self._split[0] += time.perf_counter() - t0
         cholesky = definite and self.use_cholesky and _Pardiso.is_dense(pattern.nnz, pattern.n)
         self._take_handle(2 if cholesky else -2)
+        self._pardiso.calls = self._watch
         if pattern.empty_row:  # PARDISO would crash on it (pypardiso refuses it too)
             raise LinearSolveError("pardiso: matrix is singular (an empty row)")
         # The symbolic analysis (ordering) depends only on the sparsity pattern: reuse it while the
@@ -407,7 +433,17 @@ class LinearSolver:
         if not self._pardiso.single:
             return x
         self._single_matrix = K  # what resolve() refines against
-        return self._refine(K, b, x)
+        return self._refined(K, b, x)
+
+    def _refined(self, K: sp.csr_matrix, b: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """:meth:`_refine`, its time counted while watched."""
+        if self._watch is None:
+            return self._refine(K, b, x)
+        t0 = time.perf_counter()
+        try:
+            return self._refine(K, b, x)
+        finally:
+            self._split[1] += time.perf_counter() - t0
 
     def _refine(self, K: sp.csr_matrix, b: np.ndarray, x: np.ndarray) -> np.ndarray:
         """A single-precision solution x of K x = b refined in double: x += the substitution of
@@ -596,6 +632,11 @@ class LinearSolver:
         NotPositiveDefinite
             With ``definite``, where the Cholesky factorisation meets a pivot that is not positive.
         """
+        if self.observers or self.log is not None:
+            return self._watched("solve", self._solve, K, b, reach, definite)
+        return self._solve(K, b, reach, definite)
+
+    def _solve(self, K, b, reach, definite) -> np.ndarray:
         t0 = time.perf_counter()
         K = sp.csr_matrix(K, dtype=np.float64)
         b = np.asarray(b, dtype=np.float64)
@@ -607,6 +648,31 @@ class LinearSolver:
         if not np.all(np.isfinite(x)):
             raise LinearSolveError(f"{self.method}: solution is not finite (singular matrix?)")
         return x
+
+    def _watched(self, call: str, function, *args) -> np.ndarray:
+        """``function(*args)`` (a solve or resolve) reported to the observers and the log as a
+        :class:`~hydrojam.fem.solver.events.LinearSolve`."""
+        self._watch, self._split = [], [0.0, 0.0]
+        analyses, failed, refused = self.analyses, True, False
+        t0 = time.perf_counter()
+        try:
+            x = function(*args)
+            failed = False
+            return x
+        except NotPositiveDefinite:
+            refused = True
+            raise
+        finally:
+            seconds = time.perf_counter() - t0
+            calls, self._watch = tuple(self._watch), None
+            if self._pardiso is not None:
+                self._pardiso.calls = None
+            event = LinearSolve(call, self.method, self.analyses > analyses, failed, refused,
+                                None if failed else self.negative_eigenvalues, seconds, self._split[0],
+                                self._split[1], calls)
+            if self.log is not None:
+                self.log.append(event)
+            notify(self.observers, "on_linear_solve", event)
 
     def resolve(self, b: np.ndarray, approximate: bool = False) -> np.ndarray:
         """Solution u of K u = b for the matrix K of the last successful :meth:`solve`, reusing its
@@ -633,15 +699,21 @@ class LinearSolver:
         LinearSolveError
             If u is not finite.
         """
+        if self.observers or self.log is not None:
+            return self._watched("resolve", self._resolve, b, approximate)
+        return self._resolve(b, approximate)
+
+    def _resolve(self, b: np.ndarray, approximate: bool) -> np.ndarray:
         t0 = time.perf_counter()
         b = np.asarray(b, dtype=np.float64)
         try:
             if self.method == "pardiso":
                 if self._pardiso is None:
                     raise ValueError("nothing factorised to solve with")
+                self._pardiso.calls = self._watch
                 x = self._pardiso.resolve(b)
                 if self._pardiso.single and not approximate:
-                    x = self._refine(self._single_matrix, b, x)
+                    x = self._refined(self._single_matrix, b, x)
             else:
                 if self._scipy_matrix is None:
                     raise ValueError("nothing factorised to solve with")

@@ -1,133 +1,113 @@
-"""The adaptive load path (DESIGN.md section 8): s from 0 to 1 in increments, each a Newton
-minimisation (:mod:`hydrojam.fem.newton`) of a :class:`~hydrojam.fem.problem.Problem`'s terms."""
+"""The adaptive load path (docs/solver.md, "Load path"): s from 0 to 1 in increments, each a Newton
+minimisation (:mod:`hydrojam.fem.solver.newton`) of a :class:`~hydrojam.fem.problem.Problem`'s terms."""
 
 from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 import scipy.sparse as sp
 
 from hydrojam.fem._env import blas_limited
-from hydrojam.fem.linsolve import LinearSolver, LinearSolveError
-from hydrojam.fem.newton import (NewtonOptions, NewtonResult, NewtonStatus, Timings, lowest_mode, minimize,
-                                 negative_curvature, sum_energy)
 from hydrojam.fem.problem import Problem
+from hydrojam.fem.solver.events import Observer, StepAccepted, notify
+from hydrojam.fem.solver.linsolve import LinearSolver, LinearSolveError
+from hydrojam.fem.solver.newton import NewtonOptions, NewtonResult, NewtonStatus, Timings, minimize
+from hydrojam.fem.solver.release import ReleaseOptions, ReleaseResult, release
+from hydrojam.fem.solver.stability import negative_curvature, settle
+from hydrojam.fem.solver.total import physical_residual, sum_energy
 from hydrojam.fem.terms import DampedTerm
 
 
-@dataclass(frozen=True)
-class ReleaseOptions:
-    """Taking a damped term (a viscous stabilisation, :attr:`PathOptions.damped_term`) off at a
-    state by proximal rounds (:func:`release`): minimise with the damping centred on the last
-    state and every lagged quantity (friction) frozen there, again and again, the damping lowered
-    ``lower``x after every converged round and raised ``growth``x after a failed one, until the
-    residual of the physics alone (the damped term left out) is within the Newton tolerance
-    (rtol x the forces in play): the state is then an equilibrium without the damping.
-    """
-
-    each_step: bool = True
-    """Release at every accepted load step, so that every state the path reports is an
-    equilibrium of the physics alone and the next step starts from one. False: only the caller
-    releases (at the end of the path), and the path's states are stabilised states."""
-    max_rounds: int = 240
-    """Most rounds of one release; a release that runs out is not released."""
-    lower: float = 10.0
-    """Divisor of the damping after a converged round."""
-    growth: float = 10.0
-    """Factor on the damping after a failed round (up to ``cap``)."""
-    easy_after_failure: int = 20
-    """After a failed round the damping is lowered again after a round of at most this many Newton
-    iterations, or after ``backoff_rounds`` x 2^(f-1) converged rounds in a row at its level (f:
-    the failed rounds so far): a state still travelling would otherwise alternate between a round
-    that converges and a lower one that fails, or creep at a high damping for many rounds."""
-    backoff_rounds: int = 4
-    """See ``easy_after_failure``."""
-    cap: float = 1e3
-    """Highest damping, relative to the damped term's scale at the start of the path. A round that
-    runs out of iterations is kept as progress at any damping (its last iterate is admissible and
-    lower in energy: the next round is centred there); any other failure at the cap (no
-    admissible descent) ends the release, not released."""
-    floor: float = 1e-8
-    """Lowest damping, relative to the damped term's scale at the start of the path."""
+#: s within this of 1 counts as the end of the path
+END_TOLERANCE = 1e-12
+#: name of the damped term (a viscous stabilisation) whose ``scale`` the adaptive damping sets
+DAMPED_TERM = "stabilisation"
+#: settling off a saddle (:func:`~hydrojam.fem.solver.stability.settle`) starts from a largest
+#: nodal move of this times the reference's bounding box diagonal along the unstable mode
+SETTLE_PERTURBATION = 1e-5
 
 
 @dataclass(frozen=True)
 class PathOptions:
-    """Adaptive load stepping in s: grow ``grow``x after easy steps (<= ``easy_iterations``),
-    halve on failure (and grow back after it: ``recover``); below ``ds_min`` one last attempt
-    with ``last_resort_factor`` x the Newton iteration budget, then give up."""
+    """Adaptive load stepping in s: grow ``grow`` times after easy steps (<= ``easy_iterations``),
+    halve on failure, and after a cut grow back ``grow`` times every accepted step, easy or not, up to
+    the largest increment cut (without it a path whose steps all take more than
+    ``easy_iterations``, as 3D actuators' do, never recovers from a cut: docs/solver.md); below
+    ``ds_min`` one last attempt with ``last_resort_factor`` x the Newton iteration budget, then
+    give up. A term named "stabilisation" with a ``scale`` (:class:`~hydrojam.fem.terms.DampedTerm`)
+    is damped adaptively and released at every accepted step (``damping_*``, ``release``)."""
 
     ds0: float = 0.25
+    """The first increment of s (default 0.25)."""
     ds_min: float = 1e-4
+    """The smallest increment before the last attempt and the end (default 1e-4)."""
     ds_max: float = 1.0
+    """The largest increment (default 1)."""
     grow: float = 1.5
+    """Factor on the increment after an easy step (default 1.5)."""
     easy_iterations: int = 6
+    """A step of at most this many Newton iterations is easy (default 6; the actuator's path 30)."""
     newton: NewtonOptions = NewtonOptions()
+    """The Newton settings of every step (default :class:`NewtonOptions`'s)."""
     last_resort_factor: int = 10
-    """The last attempt's Newton budget, in units of ``newton.max_iter``."""
-    end_tolerance: float = 1e-12
-    """s within this of 1 counts as the end of the path."""
-    recover: bool = True
-    """After a cut, every accepted step grows the increment ``grow``x again, easy or not, up to
-    the largest increment that was cut (an easy step may still grow it further). Without it
-    only easy steps grow the increment, and a path whose steps all take more than
-    ``easy_iterations`` (3D actuators) never recovers from a cut (docs/solver.md, "Recovery
-    after a cut"). A path without a cut is not touched, to the bit."""
+    """The last attempt's Newton budget, in units of ``newton.max_iter`` (default 10)."""
     stability_check: bool = True
     """Count the negative eigenvalues of the physical Hessian at every accepted state
-    (:func:`~hydrojam.fem.newton.negative_curvature`, one more factorisation a step; see
-    :attr:`StepRecord.negative_eigenvalues`)."""
+    (:func:`~hydrojam.fem.solver.stability.negative_curvature`, one more factorisation a step; see
+    :attr:`StepRecord.negative_eigenvalues`). Default True."""
     unphysical_terms: tuple[str, ...] = ("stabilisation",)
     """Names of the terms that are not physics (a viscous stabilisation): left out of the
-    stability check."""
-    settle: str = "final"
-    """Where a state found unstable by the stability check (a saddle: Newton converges to any
-    stationary point) is moved off it to a stable one (:func:`settle`): "final" (the end of the
-    path), "every" (every accepted state) or "never"."""
-    settle_perturbation: float = 1e-5
-    """The first move along an unstable state's mode, as the largest nodal move relative to the
-    reference's bounding box diagonal (doubled while the energy falls, :func:`settle`)."""
-    damped_term: str = "stabilisation"
-    """Name of the term whose ``scale`` (a viscous stabilisation's) the adaptive damping sets."""
+    stability check (default ("stabilisation",))."""
+    settle: Literal["final", "never"] = "final"
+    """Whether a final state found unstable by the stability check (a saddle: Newton converges to
+    any stationary point) is moved off it to a stable one
+    (:func:`~hydrojam.fem.solver.stability.settle`): "final" (default) or "never"."""
     damping_growth: float = 10.0
     """Adaptive damping (as ABAQUS's adaptive automatic stabilisation): a step whose Newton
     minimisation fails (out of iterations, no descent) is retried at the same increment with the
     damped term's scale times this (up to ``max_damping``) before the increment is cut; every
-    easy step divides it again, down to where the path started. 1: off. A snap that the weak
-    damping lets travel far within one step then travels in several damped steps."""
+    easy step divides it again, down to where the path started. 1: off (default 10). A snap that
+    the weak damping lets travel far within one step then travels in several damped steps."""
     max_damping: float = 100.0
-    """Largest scale of the damped term, relative to the scale it was built with."""
+    """Largest scale of the damped term, relative to the scale it was built with (default 100)."""
     damping_start: float = 1.0
     """The damped term's scale where the path starts and to which easy steps lower it again,
-    relative to the scale it was built with. 0: every step is first tried undamped, and the
-    damping (the built scale, then ``damping_growth`` times more) comes in only for a step that fails
-    without it, as ABAQUS's adaptive automatic stabilisation."""
+    relative to the scale it was built with (default 1). 0 (the actuator's path): every step is
+    first tried undamped, and the damping (the built scale, then ``damping_growth`` times more)
+    comes in only for a step that fails without it, as ABAQUS's adaptive automatic stabilisation."""
     extrapolate: bool = True
     """Start every step after the first from the linear extrapolation of the last increment (the
     positions' change over the last accepted step, scaled to this one's ds; ABAQUS's default
-    predictor), shortened (1, 1/2, 1/4, 0) until admissible and collision-free like any step."""
+    predictor), shortened (1, 1/2, 1/4, 0) until admissible and collision-free like any step
+    (default True)."""
     undamped_blocks: int = 1
     """An undamped attempt (the damped term at scale 0, :attr:`damping_start` 0) that runs out of
     iterations goes on from its last iterate (admissible, and lower in energy) for up to this many
     blocks of ``newton.max_iter`` iterations in all before the damping comes in: a snap must
-    travel, and undamped Newton travels it without the release a damped step then needs. 1: off."""
+    travel, and undamped Newton travels it without the release a damped step then needs. 1: off
+    (default; the actuator's path 3)."""
     damped_from_blocks: bool = False
     """Where the last undamped block ran out too, the damped attempts of the step start from its
     last iterate, with the lagged quantities (friction, the damping's centre) frozen there as at
     a step's start, instead of from the step's start: the blocks' travel is kept, and the damping
-    does not hold the state back to where the step began."""
+    does not hold the state back to where the step began (default False; the actuator's path True)."""
     release: ReleaseOptions = ReleaseOptions()
-    """How the damped term is taken off at every accepted step (:class:`ReleaseOptions`)."""
+    """How the damped term is taken off at every accepted step (default :class:`ReleaseOptions`'s)."""
     damping_relax_after: int = 0
     """With N > 0, a raised damping is also divided by ``damping_growth`` after N accepted steps
-    in a row at its level, easy or not (as :attr:`recover` for the increment); 0: only easy
-    steps lower it. A path whose damping was never raised is not touched, to the bit. Off in
-    these generic defaults; the actuator's path (:data:`hydrojam.actuator.simulate.ACTUATOR_PATH`)
-    relaxes after every step, since it starts every step undamped (docs/solver.md, "Relaxing the damping")."""
+    in a row at its level, easy or not (as the increment after a cut); 0 (default): only easy
+    steps lower it. A path whose damping was never raised is not touched, to the bit. The
+    actuator's path (:data:`hydrojam.actuator.simulate.ACTUATOR_PATH`) relaxes after every step,
+    since it starts every step undamped (docs/solver.md, "Relaxing the damping")."""
+
+    def __post_init__(self):
+        if self.settle not in ("final", "never"):
+            raise ValueError(f"settle must be final or never, not {self.settle!r}")
 
 
 @dataclass(frozen=True)
@@ -148,7 +128,7 @@ class StepRecord:
     instability: a saddle reached by symmetry, or a state the stabilisation holds while it
     travels through a snap). None without the check or without the inertia (SciPy)."""
     damping: float | None = None
-    """Scale of the damped term (``PathOptions.damped_term``) in the step, relative to its scale
+    """Scale of the damped term ("stabilisation") in the step, relative to its scale
     at the start of the path (1 unless the adaptive damping raised it); None without the term."""
     rejected: int = 0
     """Attempts at this step that failed before it was accepted (each raised the damping or cut
@@ -205,10 +185,10 @@ class PathCheckpoint:
     rejected: int
     timings: Timings
     solver_pattern: tuple[np.ndarray, np.ndarray] | None = None
-    """The linear solver's union pattern (:attr:`~hydrojam.fem.linsolve.LinearSolver.pattern`):
+    """The linear solver's union pattern (:attr:`~hydrojam.fem.solver.linsolve.LinearSolver.pattern`):
     restored, the resumed path sees the same matrices' patterns, hence the same round-off."""
     ds_cut: float | None = 0.0
-    """The largest increment cut so far, to which :attr:`PathOptions.recover` grows back (0: none
+    """The largest increment cut so far, to which the increment grows back after a cut (0: none
     cut); None where unknown (a checkpoint written before it was kept): taken as the path's
     first increment ``ds0`` if any step was rejected, else 0."""
     previous: tuple[np.ndarray, float] | None = None
@@ -237,129 +217,6 @@ def first_unstable_s(history) -> float | None:
         if h.negative_eigenvalues:
             return h.s
     return None
-
-
-@dataclass(frozen=True)
-class ReleaseState:
-    """A release between two rounds (what it takes to go on): the next round's centre x (n, d)
-    [mm], Newton iterations so far, the next round's damping ``scale`` (the term's own, absolute),
-    whether a round has failed since the damping was last lowered, the rounds so far as
-    (scale, iterations, converged), the linear solver's union pattern and the Newton work so far."""
-
-    x: np.ndarray
-    iterations: int
-    scale: float
-    failed: bool
-    rounds: tuple[tuple[float, int, bool], ...]
-    solver_pattern: tuple[np.ndarray, np.ndarray] | None = None
-    timings: Timings | None = None
-
-
-@dataclass(frozen=True)
-class ReleaseResult:
-    """Outcome of :func:`release`: the state x (n, d) [mm] (the last converged round's, or a kept
-    failed round's), Newton iterations of all rounds, whether the damping is off (``released``),
-    the rounds as (scale, iterations, converged), the physics' residual [N] at x and its
-    tolerance [N], and the Newton work."""
-
-    x: np.ndarray
-    iterations: int
-    released: bool
-    rounds: list[tuple[float, int, bool]]
-    residual: float
-    tolerance: float
-    timings: Timings
-
-
-def physical_residual(terms, x: np.ndarray, free: np.ndarray, force_scale: float, options: NewtonOptions,
-                      unphysical: tuple[str, ...] = ("stabilisation",)) -> tuple[float, float]:
-    """(residual, tolerance) [N] of the physics alone at x (n, d) [mm]: the norm over the free
-    DOFs of the summed gradients of ``terms`` whose names are not in ``unphysical``, and the Newton
-    tolerance for it (rtol x the largest such term's forces in play, floored at round-off)."""
-    xs = np.asarray(x, dtype=float)
-    fidx = np.flatnonzero(free)
-    physical = [t for t in terms if t.name not in unphysical]
-    grads = [t.gradient(xs) for t in physical]
-    in_play = max(float(np.linalg.norm(t.force_flux(xs, g)[fidx])) for t, g in zip(physical, grads))
-    return (float(np.linalg.norm(sum(grads)[fidx])),
-            max(options.rtol * in_play, options.residual_floor * force_scale))
-
-
-def _held_since_failure(rounds, k: int) -> bool:
-    """Whether the converged rounds since the last failed one (``rounds``: (scale, iterations,
-    converged)) number k 2^(f-1), f the failed rounds so far."""
-    failures = sum(1 for r in rounds if not r[2])
-    held = next((i for i, r in enumerate(reversed(rounds)) if not r[2]), len(rounds))
-    return failures > 0 and held >= k * 2 ** (failures - 1)
-
-
-def release(terms, damped, x: np.ndarray, free: np.ndarray, force_scale: float, newton: NewtonOptions,
-            solver: LinearSolver, options: ReleaseOptions = ReleaseOptions(), base_scale: float = 1.0,
-            unphysical: tuple[str, ...] = ("stabilisation",), resume: ReleaseState | None = None,
-            on_round: Callable[[ReleaseState], None] | None = None) -> ReleaseResult:
-    """Take the damped term ``damped`` (one of ``terms``, with a ``scale``) off at positions x
-    (n, d) [mm] by proximal rounds (:class:`ReleaseOptions`), from its present scale.
-
-    Before the first round the state is tested as it is: an undamped step, or one that barely
-    moved, is released without a round. ``base_scale``: the damped term's scale at the start of the path, to which
-    ``options.cap`` and ``options.floor`` are relative. The damped term's scale is left where the
-    last round set it. ``on_round(state)`` after every round that the release goes on from;
-    ``resume``: such a state to go on from (``x`` unused)."""
-    shape = np.shape(x)
-    its, scale, rounds, failed = 0, float(damped.scale), [], False
-    spent = Timings()
-    x = np.array(x, dtype=float)
-    if resume is not None:
-        x, its, scale, failed, rounds = (np.array(resume.x, dtype=float).reshape(shape), resume.iterations,
-                                         resume.scale, resume.failed, list(resume.rounds))
-        solver.restore_pattern(resume.solver_pattern)
-        if resume.timings is not None:
-            spent.add(resume.timings)
-    cap = options.cap * base_scale
-
-    def result(ok, checked=None):
-        r, tol = checked or physical_residual(terms, x, free, force_scale, newton, unphysical)
-        return ReleaseResult(x, its, ok, rounds, r, tol, spent)
-
-    def equilibrium(roundoff: bool = False):
-        """(residual, tolerance) of the physics at x where it is an equilibrium: within its
-        tolerance, or, after a round that stopped at the energy's round-off (``roundoff``), with no
-        viscous force above it left (the physics is then at its round-off too); None otherwise."""
-        r, tol = physical_residual(terms, x, free, force_scale, newton, unphysical)
-        if r <= tol or (roundoff and float(np.linalg.norm(damped.gradient(x)[free])) <= tol):
-            return r, tol
-        return None
-
-    if resume is None and (checked := equilibrium()):
-        return result(True, checked)
-    for _ in range(options.max_rounds - len(rounds)):
-        damped.scale = scale
-        for t in terms:  # each round is a step: the damping centred and lagged quantities frozen at its start
-            t.begin_step(x)
-        res = minimize(terms, x, free, force_scale, newton, solver)
-        its += res.iterations
-        spent.add(res.timings)
-        rounds.append((scale, res.iterations, res.converged))
-        if not res.converged:
-            ran_out = res.status is NewtonStatus.MAX_ITERATIONS
-            if scale >= cap * (1 - 1e-12) and not ran_out:
-                return result(False)
-            if ran_out:
-                x = res.x
-            scale = min(scale * options.growth, cap)
-            failed = True
-        else:
-            x = res.x
-            if checked := equilibrium(res.status is not NewtonStatus.CONVERGED):
-                return result(True, checked)
-            if (not failed or res.iterations <= options.easy_after_failure
-                    or _held_since_failure(rounds, options.backoff_rounds)):
-                scale = max(scale / options.lower, options.floor * base_scale)
-                failed = False
-        if on_round is not None:
-            on_round(ReleaseState(np.array(x, dtype=float), its, scale, failed, tuple(rounds), solver.pattern,
-                                  dataclasses.replace(spent)))
-    return result(False)
 
 
 def _safe_move(terms, x: np.ndarray, step: np.ndarray) -> bool:
@@ -411,76 +268,6 @@ def _extrapolated(terms, x, x_start, previous, ds, free, shape):
     return x_start
 
 
-@dataclass(frozen=True)
-class Settled:
-    """Outcome of :func:`settle`: positions x (n, d) [mm], the negative eigenvalues left there,
-    Newton iterations, the physics' residual and tolerance [N] and the Newton work."""
-
-    x: np.ndarray
-    negative: int | None
-    iterations: int
-    residual: float
-    tolerance: float
-    timings: Timings
-
-
-def _down_the_mode(terms, x: np.ndarray, mode: np.ndarray, first: float, longest: float) -> np.ndarray | None:
-    """The lowest-energy state of x + a mode (x (n, d) [mm]; mode (n, d), largest nodal move 1)
-    over a = ``first`` x 2^k <= ``longest`` [mm], the mode's sign taken downhill (g . mode <= 0),
-    up to the bottom of its well or the step cap of the terms (contact CCD): every trial
-    collision-free and admissible. None where no trial lowers the energy."""
-    g = sum(t.gradient(x) for t in terms).ravel()
-    step = (-mode if g @ mode.ravel() > 0 else mode) * longest
-    cap = min([1.0] + [t.max_step(x, step) for t in terms])
-    E0 = sum_energy(terms, x)
-    best, E_best = None, E0
-    a = first / longest
-    while a <= cap:
-        E = sum_energy(terms, x + a * step)
-        if not np.isfinite(E):
-            break
-        if E < E_best:
-            best, E_best = a, E
-        elif best is not None:  # past the bottom of the well
-            break
-        a *= 2.0
-    return None if best is None else x + best * step
-
-
-def settle(terms, x: np.ndarray, free: np.ndarray, force_scale: float, options: "PathOptions",
-           solver: LinearSolver, checker: LinearSolver, tries: int = 3) -> Settled:
-    """Move an unstable equilibrium x (n, d) [mm] of ``terms`` (the physics) off its saddle, along
-    its unstable mode: the Hessian's lowest eigenpair (:func:`~hydrojam.fem.newton.lowest_mode`),
-    followed downhill from a largest nodal move of ``options.settle_perturbation`` x the bounding
-    box diagonal, doubled while the energy falls (:func:`_down_the_mode`), then the full Newton
-    from the lowest state on it. Below the saddle's energy the monotone descent cannot come back
-    to it. Up to ``tries`` times, from each unstable equilibrium reached; the result is the first
-    stable state, or x itself with its count where none was reached."""
-    xs = np.asarray(x, dtype=float)
-    size = float(np.linalg.norm(xs.max(axis=0) - xs.min(axis=0)))
-    spent, its = Timings(), 0
-    negative, current = None, xs
-    for _ in range(tries):
-        value, mode = lowest_mode(terms, current, free, checker, options.newton)
-        if not value < 0:
-            break
-        start = _down_the_mode(terms, current, mode, options.settle_perturbation * size, size)
-        if start is None:
-            break
-        res = minimize(terms, start, free, force_scale, options.newton, solver)
-        spent.add(res.timings)
-        its += res.iterations
-        if not res.converged:
-            break
-        negative = negative_curvature(terms, res.x, free, checker, options.newton)
-        if negative == 0:
-            r, tol = physical_residual(terms, res.x, free, force_scale, options.newton, ())
-            return Settled(res.x, 0, its, r, tol, spent)
-        current = res.x
-    r, tol = physical_residual(terms, xs, free, force_scale, options.newton, ())
-    return Settled(xs, negative, its, r, tol, spent)
-
-
 @dataclass
 class _Walk:
     """What :func:`solve_path` carries from one attempt to the next: the last accepted state, the
@@ -508,6 +295,7 @@ class _Walk:
     carried: int = 0
     carried_its: int = 0
     restart: np.ndarray | None = None  # where the step's damped attempts start (damped_from_blocks)
+    observers: tuple = ()  # told what the path does (hydrojam.fem.solver.events)
 
     def result(self, converged: bool, message: str) -> PathResult:
         """The path's outcome at the last accepted state."""
@@ -523,28 +311,85 @@ def solve_path(
     on_attempt: Callable[[float, float, NewtonResult], None] | None = None,
     resume: PathCheckpoint | None = None,
     on_checkpoint: Callable[[PathCheckpoint], None] | None = None,
+    observers: Sequence[Observer] = (),
 ) -> PathResult:
-    """Follow s from 0 to 1 in adaptive increments, each an energy minimisation, from the
-    reference positions.
+    """Follow the load parameter s from 0 to 1 in adaptive increments, each an energy
+    minimisation (:func:`~hydrojam.fem.solver.newton.minimize`), from the reference positions.
 
-    On failure below the minimum increment, returns with the last converged state and a message
-    saying where and why. ``callback(s, x, record)`` runs after
-    every accepted step, ``on_attempt(s_try, ds, newton_result)`` after every attempt (progress).
-    Every term's ``begin_step`` runs at the start of the path (s = 0: nothing lagged survives
-    from an earlier path on the same terms) and of every step. With
+    Every term's ``begin_step`` runs at the start of the path (s = 0: nothing lagged survives from
+    an earlier path on the same terms) and of every step. A term named "stabilisation" with a
+    ``scale`` (a viscous stabilisation) is damped adaptively and released at every accepted step
+    (:class:`PathOptions`); its scale is left where the path ended. With
     ``options.stability_check`` every accepted state's physical Hessian is tested for negative
-    eigenvalues (:attr:`StepRecord.negative_eigenvalues`, :attr:`PathResult.unstable_at_s`).
-    A term named ``options.damped_term`` with a ``scale`` (a viscous stabilisation) is damped
-    adaptively (:attr:`PathOptions.damping_growth`); its scale is left where the path ended.
+    eigenvalues (:attr:`StepRecord.negative_eigenvalues`), and an unstable final state is settled
+    off its saddle (``options.settle``).
 
-    ``on_checkpoint(checkpoint)`` runs after every accepted step (after ``callback``) with what
-    it takes to go on from there; ``resume``: such a checkpoint, from which the path goes on
-    (the equilibration at s = 0 skipped) instead of starting from the reference positions.
+    Parameters
+    ----------
+    problem : Problem
+        Reference positions X (n, d) [mm], the terms at each s, the Dirichlet conditions and the
+        force scale [N] (the floor of the residual tolerance).
+    options : PathOptions, optional
+        Step control, Newton settings, damping and its release.
+    callback : callable, optional
+        ``callback(s, x, record)`` after every accepted step: s, positions x (n, d) [mm] and its
+        :class:`StepRecord`.
+    on_attempt : callable, optional
+        ``on_attempt(s_try, ds, newton_result)`` after every attempt, accepted or not (progress).
+    resume : PathCheckpoint, optional
+        A checkpoint of this problem's path (given to ``on_checkpoint``) to go on from instead of
+        the reference positions (the equilibration at s = 0 skipped): the same path, bit for bit,
+        as one in one go.
+    on_checkpoint : callable, optional
+        ``on_checkpoint(checkpoint)`` after every accepted step (after ``callback``) with what it
+        takes to go on from there (:class:`PathCheckpoint`).
+    observers : sequence of Observer, optional
+        Told every linear solve, Newton direction, line search, iteration, release round and
+        accepted step (:mod:`hydrojam.fem.solver.events`); none by default, at no cost.
+
+    Returns
+    -------
+    PathResult
+        The last converged positions x (n, d) [mm], the s reached, whether it is 1
+        (``converged``), a message (where and why the path stopped, otherwise "converged"), the
+        accepted steps' records and the Newton work.
+
+    Raises
+    ------
+    ValueError
+        For an invalid linear solver setting (``options.newton.linear_solver``, or the
+        environment's ``HYDROJAM_SOLVER_THREADS``). A path that cannot go on does not raise: it
+        returns its last converged state with ``converged`` False.
+
+    Examples
+    --------
+    A square of rubber (plane strain, 1 x 1 mm) on rollers at its bottom and left edges, its top
+    edge moved up 0.2 mm: the stretch is homogeneous, and the free right edge moves in to the
+    lateral stretch at which the plane-strain neo-Hookean stress across it vanishes,
+    dW/dlambda1 = 0 at lambda2 = 1.2 (solved here by bisection):
+
+    >>> from scipy.optimize import brentq
+    >>> from hydrojam import NeoHookean
+    >>> from hydrojam.fem import Block, Problem, Solid, element_for_meshio_type, fixed, prescribed, rectangle
+    >>> rubber = NeoHookean()                               # G = 0.023 MPa, Poisson's ratio 0.45
+    >>> mesh = rectangle(1.0, 1.0, 0.5, order=2)            # mm, quadratic triangles
+    >>> solid = Solid(mesh.points, [Block(mesh.cells, element_for_meshio_type(mesh.cell_type), rubber, "rubber")])
+    >>> g = mesh.group_nodes
+    >>> bcs = [fixed(g("bottom"), 2, [1]), fixed(g("left"), 2, [0]), prescribed(g("top"), 2, 1, 0.2)]
+    >>> result = solve_path(Problem(mesh.points, lambda s: [solid], bcs, force_scale=rubber.shear_modulus))
+    >>> result.converged, result.s
+    (True, 1.0)
+    >>> G, K, lam2 = rubber.shear_modulus, rubber.bulk_modulus, 1.2
+    >>> def dW(lam1):                                       # W = G/2 (J^(-2/3) I1 - 3) + K/2 (J - 1)^2
+    ...     J, I1 = lam1 * lam2, lam1**2 + lam2**2 + 1.0
+    ...     return G / 2 * J ** (-2 / 3) * (2 * lam1 - 2 / 3 * I1 / lam1) + K * (J - 1.0) * lam2
+    >>> round(brentq(dW, 0.5, 1.0), 5), round(float(result.x[g("right"), 0].mean()), 5)
+    (0.85959, 0.85959)
     """
-    walk = _start(problem, options, resume)
+    walk = _start(problem, options, resume, tuple(observers))
     if isinstance(walk, PathResult):
         return walk
-    while walk.s < 1.0 - options.end_tolerance:
+    while walk.s < 1.0 - END_TOLERANCE:
         walk.ds = min(walk.ds, 1.0 - walk.s)
         s_try = walk.s + walk.ds
         t0 = time.perf_counter()
@@ -558,7 +403,7 @@ def solve_path(
         if res.converged and damped is not None and options.release.each_step:
             path_scale = damped.scale
             rel = release(terms, damped, res.x, walk.free, problem.force_scale, options.newton, walk.solver,
-                          options.release, walk.base, options.unphysical_terms)
+                          options.release, walk.base, options.unphysical_terms, observers=walk.observers)
             walk.timings.add(rel.timings)
             damped.scale = path_scale
         if res.converged and (rel is None or rel.released):
@@ -570,29 +415,34 @@ def solve_path(
     return walk.result(True, "converged")
 
 
-def _start(problem: Problem, options: PathOptions, resume: PathCheckpoint | None) -> _Walk | PathResult:
+def _start(problem: Problem, options: PathOptions, resume: PathCheckpoint | None,
+           observers: tuple = ()) -> _Walk | PathResult:
     """The walk at s = 0 (the reference positions equilibrated, every lagged quantity begun there)
     or at ``resume``'s state; a PathResult where s = 0 cannot be equilibrated."""
-    solver = LinearSolver(options.newton.linear_solver)
+    solver = LinearSolver(options.newton.linear_solver, observers)
     # the stability check's own solver: its matrices never touch the Newton solver's pattern
     # and analysis, so the check leaves the path's round-off as it was
-    checker = LinearSolver(options.newton.linear_solver) if options.stability_check else None
+    checker = LinearSolver(options.newton.linear_solver, observers) if options.stability_check else None
     x = problem.X.ravel().copy()
     problem.apply_dirichlet(x, 0.0)
-    walk = _Walk(solver, checker, problem.free_mask(), problem.X.shape, x, options.newton, ds=options.ds0)
+    walk = _Walk(solver, checker, problem.free_mask(), problem.X.shape, x, options.newton, ds=options.ds0,
+                 observers=observers)
     terms0 = problem.terms(0.0)
-    damped = next((t for t in terms0 if t.name == options.damped_term), None)
+    damped = next((t for t in terms0 if t.name == DAMPED_TERM), None)
     if isinstance(damped, DampedTerm) and damped.scale:  # none, or one switched off: nothing to adapt
         walk.damped, walk.base = damped, damped.scale
         damped.scale = walk.base * options.damping_start
     if resume is None:
         for t in terms0:  # nothing lagged (friction) survives from an earlier path on the same terms
             t.begin_step(x.reshape(walk.shape))
-        res0 = minimize(terms0, x.reshape(walk.shape), walk.free, problem.force_scale, options.newton, solver)
+        res0 = minimize(terms0, x.reshape(walk.shape), walk.free, problem.force_scale, options.newton, solver,
+                        observers)
         walk.timings.add(res0.timings)
         if not res0.converged:
             return walk.result(False, f"could not equilibrate the initial state (s = 0): {res0.message}")
         walk.x = res0.x.ravel().copy()
+        if observers:
+            notify(observers, "on_step_accepted", StepAccepted(0.0, res0.x))
         return walk
     walk.x = np.asarray(resume.x, dtype=float).ravel().copy()
     walk.previous = resume.previous
@@ -628,7 +478,8 @@ def _attempt(problem: Problem, walk: _Walk, s_try: float, options: PathOptions):
     if x_start is None:
         return terms, NewtonResult(x.reshape(shape), NewtonStatus.INADMISSIBLE_START, 0, np.inf, np.inf,
                                    "the prescribed displacement increment is not admissible", [], Timings())
-    return terms, minimize(terms, x_start.reshape(shape), walk.free, problem.force_scale, walk.newton, walk.solver)
+    return terms, minimize(terms, x_start.reshape(shape), walk.free, problem.force_scale, walk.newton, walk.solver,
+                           walk.observers)
 
 
 def _accept(problem: Problem, walk: _Walk, s_try: float, terms, res: NewtonResult, rel: ReleaseResult | None,
@@ -646,14 +497,16 @@ def _accept(problem: Problem, walk: _Walk, s_try: float, terms, res: NewtonResul
     if rel is not None:
         residual, tolerance = rel.residual, rel.tolerance
     else:  # undamped, or a stabilised state whose residual includes the viscous force
-        tolerance = physical_residual(terms, x_new, walk.free, problem.force_scale, options.newton, ())[1]
+        tolerance = physical_residual(terms, x_new, walk.free, problem.force_scale, options.newton.rtol, (),
+                                      options.newton.residual_floor)[1]
         residual = res.residual
     if walk.checker is not None:
         physical = [t for t in terms if t.name not in options.unphysical_terms]
         negative = negative_curvature(physical, x_new, walk.free, walk.checker, options.newton)
-        final = walk.s >= 1.0 - options.end_tolerance
-        if negative and (options.settle == "every" or (options.settle == "final" and final)):
-            settled = settle(physical, x_new, walk.free, problem.force_scale, options, walk.solver, walk.checker)
+        final = walk.s >= 1.0 - END_TOLERANCE
+        if negative and options.settle == "final" and final:
+            settled = settle(physical, x_new, walk.free, problem.force_scale, options.newton, walk.solver, walk.checker,
+                             SETTLE_PERTURBATION, observers=walk.observers)
             walk.timings.add(settled.timings)
             its += settled.iterations
             if settled.negative == 0:
@@ -670,10 +523,12 @@ def _accept(problem: Problem, walk: _Walk, s_try: float, terms, res: NewtonResul
     walk.history.append(rec)
     if callback is not None:
         callback(walk.s, x_new, rec)
+    if walk.observers:
+        notify(walk.observers, "on_step_accepted", StepAccepted(walk.s, x_new, rec))
     easy = its <= options.easy_iterations
     if easy:
         walk.ds = min(walk.ds * options.grow, options.ds_max)
-    elif options.recover and walk.ds < walk.ds_cut:
+    elif walk.ds < walk.ds_cut:
         walk.ds = min(walk.ds * options.grow, walk.ds_cut)
     lowest = None if damped is None else base * options.damping_start
     if damped is not None and damped.scale > lowest and (
