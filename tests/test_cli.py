@@ -132,6 +132,10 @@ BAD_DESIGNS = [
     ("cavity_width = 5e4\n", "mesh.size: the mesh would have about"),
     ("[mesh]\nsize = 1e-4\n", "mesh.size: the mesh would have about"),
     ("clearance = 1e-12\n", "clearance: must be >= 1e-6 x the actuator's larger size"),
+    # multi-chamber designs: a third chamber in 2D, a chamber's water outside the liquid range, a misfit
+    ("[[chambers]]\n[[chambers]]\n[[chambers]]\n", "chambers: 2D takes 2 chambers"),
+    ("[[chambers]]\n[[chambers]]\ntemperature = 380.0\n", "chambers.1.temperature: must be <= 373.15"),
+    ("[[chambers]]\ncavity_width = 12.0\n[[chambers]]\n", "chambers.0.cavity_width: chamber 0's particles do not fit"),
 ]
 
 

@@ -23,7 +23,10 @@ def _model_class(annotation) -> type[BaseModel] | None:
 
 
 def _parts(loc: str | Sequence) -> list[str]:
-    return loc.split(".") if isinstance(loc, str) else [str(p) for p in loc]
+    """The names along ``loc``, without list indices (``chambers.0.temperature`` walks the
+    chamber table's ``temperature``)."""
+    parts = loc.split(".") if isinstance(loc, str) else [str(p) for p in loc]
+    return [p for p in parts if not p.isdigit()]
 
 
 def owner_model(model: type[BaseModel], loc: str | Sequence) -> tuple[type[BaseModel], str] | None:

@@ -165,6 +165,35 @@ def test_a_rigid_rotation_about_y_is_its_bending_angle(half, angle):
     assert m["packing_fraction"] == pytest.approx(ref["packing_fraction"], rel=1e-12)
 
 
+@pytest.mark.parametrize("angle", [-30.0, 12.5, 100.0])
+def test_the_half_model_bends_in_the_x_z_plane_without_twist(half, angle):
+    """The half model's free end (its face and the mirror image) turned about y: the bending
+    plane is 180 deg (toward -x) or 0 (toward +x), and twist and tip_dy are 0; positions
+    are exact to round-off, so the tolerance is 1e-9 deg (mm) against angles (lengths) of order 10-100."""
+    x = _rotate_about_y(half.mesh.points, angle, np.array([3.0, 0.0, -5.0]))
+    m = measure(half, x)
+    assert m["bending_plane_deg"] == pytest.approx(180.0 if angle > 0 else 0.0, abs=1e-9)
+    assert m["twist_deg"] == pytest.approx(0.0, abs=1e-9) and m["tip_dy_mm"] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_full_model_reads_a_twisted_and_swung_free_end(full):
+    """The whole actuator turned rigidly: twisted by 15 deg about z, then swung by 20 deg toward
+    +y (plane 90 deg): the free end reads those back, and tip_dy the centroid's move along y."""
+    def rot(axis, a):
+        k = np.asarray(axis, dtype=float)
+        K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+        return np.eye(3) + math.sin(a) * K + (1 - math.cos(a)) * K @ K
+
+    R = rot([1.0, 0.0, 0.0], math.radians(20.0)) @ rot([0.0, 0.0, 1.0], math.radians(15.0))
+    X = full.mesh.points
+    x = X @ R.T
+    m = measure(full, x)
+    assert m["bending_plane_deg"] == pytest.approx(90.0, abs=1e-9)
+    assert m["twist_deg"] == pytest.approx(15.0, abs=1e-9)
+    fe = full.free_end_nodes
+    assert m["tip_dy_mm"] == pytest.approx((x[fe] - X[fe])[:, 1].mean(), abs=1e-9)
+
+
 def test_a_free_end_face_tilted_about_x_has_no_bending_angle():
     """A tilt about the x axis (out of the bending plane) is not a bending: theta stays 0."""
     rng = np.random.default_rng(1)

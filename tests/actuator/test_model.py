@@ -231,9 +231,12 @@ def test_measure_reference_state(reference):
     expected = 4 * np.pi * D**2 / 4 / (W_CAV * L_CAV)
     assert reference["packing_fraction"] == pytest.approx(expected, rel=1e-3)
     assert reference["mean_swelling_ratio"] == pytest.approx(1.0, rel=1e-3)
-    assert set(reference) == {"bending_angle_deg", "tip_dx_mm", "tip_dz_mm", "curling_index",
-                              "max_curvature_per_mm", "packing_fraction", "contacts_per_particle",
-                              "mean_swelling_ratio"}
+    assert reference["bending_plane_deg"] is None  # straight: no plane
+    assert reference["twist_deg"] == 0.0 and reference["tip_dy_mm"] == 0.0
+    assert reference["column_folds"] == 0
+    assert set(reference) == {"bending_angle_deg", "bending_plane_deg", "twist_deg", "tip_dx_mm", "tip_dy_mm",
+                              "tip_dz_mm", "curling_index", "max_curvature_per_mm", "packing_fraction",
+                              "contacts_per_particle", "mean_swelling_ratio", "column_folds"}
 
 
 def test_measure_no_negative_zero(reference):

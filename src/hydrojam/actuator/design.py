@@ -32,6 +32,8 @@ _YEOH_I1_RANGE = 30.0  # Yeoh stiffness must stay positive for 0 <= I1bar - 3 <=
 
 __all__ = [
     "MAX_CAVITY_MM",
+    "MAX_CHAMBERS_2D",
+    "ChamberSpec",
     "MAX_ELEMENTS",
     "MAX_WALL_MM",
     "Design",
@@ -286,6 +288,34 @@ class ReplicaSpec(BaseModel):
         return self
 
 
+#: most chambers of a design: two side by side along x in 2D
+MAX_CHAMBERS_2D = 2
+#: where a multi-chamber design's strain-limit layer goes
+STRAIN_LIMIT_POSITIONS = ("-x", "+x", "middle", "none")
+
+
+class ChamberSpec(BaseModel):
+    """One chamber of a multi-chamber design (``Design.chambers``): its particles, gel and,
+    optionally, its own temperature. A key left out takes the design's own (its particle_layers,
+    particles_per_layer, particle_diameter, hydrogel; the stimulus' temperature); ``cavity_width``
+    left out is derived from the particles, m d + (m + 1) c."""
+
+    model_config = _CONFIG
+
+    particle_layers: int | None = Field(None, ge=1, le=100, description="particle layers along the axis PL; "
+                                        "omitted: the design's [-]")
+    particles_per_layer: int | None = Field(None, ge=1, le=20, description="particles side by side in a layer; "
+                                            "omitted: the design's [-]")
+    particle_diameter: float | None = Field(None, gt=0, le=1000, description="as-prepared particle diameter d; "
+                                            "omitted: the design's [mm]")
+    cavity_width: float | None = Field(None, gt=0, le=MAX_CAVITY_MM, description="this chamber's cavity width "
+                                       "along x; omitted: m d + (m + 1) c [mm]")
+    temperature: float | None = Field(None, ge=WATER_RANGE_K[0], le=WATER_RANGE_K[1],
+                                      description="target temperature of the water this chamber is perfused "
+                                      "with; omitted: stimulus.temperature [K]")
+    hydrogel: GelSpec | None = Field(None, description="this chamber's gel; omitted: the design's hydrogel")
+
+
 class Design(BaseModel):
     """A particle-jamming bending actuator: geometry, materials, stimulus and mesh (docs/actuator.md).
 
@@ -332,6 +362,15 @@ class Design(BaseModel):
         description="3D only: the strain-limit layer's width along y, a strip centred on the -x face (the paper's "
         "other reading of h); omitted: the face's full width cavity_depth + 2 side_wall_thickness [mm]",
     )
+    chamber_wall_thickness: float | None = Field(
+        None, gt=0, le=MAX_WALL_MM,
+        description="with chambers: the shared wall between neighbouring chambers; omitted: side_wall_thickness [mm]",
+    )
+    strain_limit_position: Literal["-x", "+x", "middle", "none"] | None = Field(
+        None,
+        description="with chambers: the strain-limit layer on the -x or +x outer face, as the middle wall "
+        "(of thickness chamber_wall_thickness), or none; omitted: -x",
+    )
     cavity_width: float | None = Field(
         None,
         gt=0, le=MAX_CAVITY_MM,
@@ -372,6 +411,18 @@ class Design(BaseModel):
         ReplicaSpec(), description="replicas: the design run several times from seeded perturbations of "
         "its as-prepared particle positions (docs/replicas.md)"
     )
+    chambers: tuple[ChamberSpec, ...] | None = Field(
+        None,
+        description="two chambers side by side along x ([[chambers]] tables, the first on the -x side), "
+        "each with its particles, gel and temperature; omitted: one chamber (docs/chambers.md)",
+    )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _chambers_tuple(cls, data):
+        if isinstance(data, dict) and isinstance(data.get("chambers"), list):  # TOML's array of tables
+            return {**data, "chambers": tuple(data["chambers"])}
+        return data
 
     # ---------------------------------------------------------------- derived geometry
 
@@ -385,17 +436,53 @@ class Design(BaseModel):
 
     @property
     def resolved_cavity_length(self) -> float:
-        """Cavity length along the axis z [mm], given or derived."""
+        """Cavity length along the axis z [mm], given or derived (with chambers: the longest
+        chamber's column)."""
         if self.cavity_length is not None:
             return self.cavity_length
+        if self.chambers is not None:
+            c = self.clearance
+            return max(ch.particle_layers * ch.particle_diameter + (ch.particle_layers + 1) * c
+                       for ch in self.resolved_chambers)
         pl = self.particle_layers
         return pl * self.particle_diameter + (pl + 1) * self.clearance
 
     @property
+    def resolved_chambers(self) -> tuple[ChamberSpec, ...] | None:
+        """The chambers with every key written out (the design's own where a chamber leaves one
+        out, cavity widths derived from the particles); None for a single-chamber design."""
+        if self.chambers is None:
+            return None
+        out = []
+        for ch in self.chambers:
+            pl = self.particle_layers if ch.particle_layers is None else ch.particle_layers
+            m = self.particles_per_layer if ch.particles_per_layer is None else ch.particles_per_layer
+            d = self.particle_diameter if ch.particle_diameter is None else ch.particle_diameter
+            w = m * d + (m + 1) * self.clearance if ch.cavity_width is None else ch.cavity_width
+            out.append(ChamberSpec(
+                particle_layers=pl, particles_per_layer=m, particle_diameter=d, cavity_width=w,
+                temperature=self.stimulus.temperature if ch.temperature is None else ch.temperature,
+                hydrogel=self.hydrogel if ch.hydrogel is None else ch.hydrogel))
+        return tuple(out)
+
+    @property
+    def resolved_chamber_wall(self) -> float:
+        """The shared wall between chambers [mm]: chamber_wall_thickness, else side_wall_thickness."""
+        return self.side_wall_thickness if self.chamber_wall_thickness is None else self.chamber_wall_thickness
+
+    @property
+    def resolved_strain_limit_position(self) -> str:
+        """Where the strain-limit layer lies: "-x" (the single chamber's), "+x", "middle" or "none"."""
+        return "-x" if self.strain_limit_position is None else self.strain_limit_position
+
+    @property
     def resolved_cavity_depth(self) -> float:
-        """Cavity depth along y [mm], given or derived (used in 3D only)."""
+        """Cavity depth along y [mm], given or derived (used in 3D only; with chambers: the largest
+        chamber's particle diameter + 2 c)."""
         if self.cavity_depth is not None:
             return self.cavity_depth
+        if self.chambers is not None:
+            return max(ch.particle_diameter for ch in self.resolved_chambers) + 2.0 * self.clearance
         return self.particle_diameter + 2.0 * self.clearance
 
     @property
@@ -405,7 +492,12 @@ class Design(BaseModel):
 
     @property
     def width(self) -> float:
-        """Actuator width along x, h + 2 t0 + cavity_width [mm]."""
+        """Actuator width along x, h + 2 t0 + cavity_width [mm]; with chambers the cavities' widths,
+        the shared wall, 2 t0 and h where the strain-limit layer lies on an outer face."""
+        if self.chambers is not None:
+            outer = self.strain_limit_thickness if self.resolved_strain_limit_position in ("-x", "+x") else 0.0
+            return (sum(ch.cavity_width for ch in self.resolved_chambers) + self.resolved_chamber_wall
+                    + 2.0 * self.side_wall_thickness + outer)
         return self.strain_limit_thickness + 2.0 * self.side_wall_thickness + self.resolved_cavity_width
 
     def estimated_elements(self) -> float:
@@ -425,6 +517,12 @@ class Design(BaseModel):
         """A copy with cavity_width, cavity_length (and cavity_depth in 3D) written out explicitly,
         and with a schedule, stimulus.temperature set to the schedule's last temperature."""
         update = {"cavity_width": self.resolved_cavity_width, "cavity_length": self.resolved_cavity_length}
+        if self.chambers is not None:  # each chamber has its own width; the shared keys written out
+            update = {"cavity_length": self.resolved_cavity_length, "chambers": self.resolved_chambers,
+                      "chamber_wall_thickness": self.resolved_chamber_wall,
+                      "strain_limit_position": self.resolved_strain_limit_position}
+            if self.dimension == 3:
+                update["cavity_depth"] = self.resolved_cavity_depth
         if self.dimension == 3:
             update["cavity_depth"] = self.resolved_cavity_depth
         if self.stimulus.schedule is not None:
@@ -444,12 +542,68 @@ class Design(BaseModel):
 
     # ---------------------------------------------------------------- consistency
 
+    def _check_chambers(self) -> None:
+        """The checks of a multi-chamber design (its fields' own ranges aside)."""
+        n = len(self.chambers)
+        if self.dimension == 2 and not n == MAX_CHAMBERS_2D:
+            raise ValueError(f"chambers: 2D takes {MAX_CHAMBERS_2D} chambers side by side along x (three round the "
+                             f"axis would need dimension = 3; got {n})")
+        if self.dimension == 3 and not n == 2:
+            raise ValueError(f"chambers: 3D takes 2 chambers side by side along x at present (three round the "
+                             f"axis are not yet simulated; got {n})")
+        if self.strain_limit_width is not None:
+            raise ValueError(f"strain_limit_width: not with chambers (the strain-limit layer spans its face; got "
+                             f"strain_limit_width {_g(self.strain_limit_width)} mm)")
+        if self.cavity_width is not None:
+            raise ValueError(f"cavity_width: not with chambers: each chamber sets its own cavity_width (got "
+                             f"cavity_width {_g(self.cavity_width)} mm)")
+        if self.stimulus.schedule is not None:
+            raise ValueError("stimulus.schedule: not with chambers: a time-resolved run has one temperature "
+                             "(give each chamber its target temperature instead)")
+        c, h = self.clearance, self.mesh.size
+        length = self.resolved_cavity_length
+        depth = self.resolved_cavity_depth
+        for k, ch in enumerate(self.resolved_chambers):
+            d, m, pl = ch.particle_diameter, ch.particles_per_layer, ch.particle_layers
+            where = f"chambers.{k}"
+            if not c < d / 4.0:
+                raise ValueError(f"{where}.particle_diameter: must be > 4 clearance = {_g(4 * c)} mm (a clearance "
+                                 f"is a gap, not a loose fit; got {_g(d)} mm)")
+            if h > d / 4.0:
+                raise ValueError(f"mesh.size: must be <= {where}.particle_diameter/4 = {_g(d / 4.0)} mm so that "
+                                 f"about 12 quadratic edges or more go round a particle (got {_g(h)} mm)")
+            fits = [("cavity_width", m, ch.cavity_width), ("cavity_length", pl, length)]
+            if self.dimension == 3:
+                fits.append(("cavity_depth", 1, depth))
+            for name, count, size in fits:
+                need = count * d + (count + 1) * c
+                if need > size * (1.0 + _REL_TOL):
+                    field = f"{where}.{name}" if name == "cavity_width" else name
+                    raise ValueError(
+                        f"{field}: chamber {k}'s particles do not fit: {count} x {_g(d)} mm + {count + 1} x "
+                        f"{_g(c)} mm clearance = {_g(need)} mm > {_g(size)} mm; need {field} >= {_g(need)} mm")
+            for name, value in (ch.hydrogel.model_dump().items() if ch.hydrogel is not None else ()):
+                if not math.isfinite(value):
+                    raise ValueError(non_finite_message(f"{where}.hydrogel.{name}", value,
+                                                        field_range(GelSpec, name), field_unit(GelSpec, name)))
+        wall = self.resolved_chamber_wall
+        if wall / 2.0 < MIN_WALL_PER_MESH * h:
+            raise ValueError(
+                f"chamber_wall_thickness: too thin for mesh.size {_g(h)} mm: must be >= {_g(2 * MIN_WALL_PER_MESH * h)} "
+                f"mm (it is meshed in two halves, each >= mesh.size/4), else its elements are slivers (got {_g(wall)} mm)")
+
     @model_validator(mode="after")
     def _check_consistency(self) -> Design:
         for name, value in self.hydrogel.model_dump().items():
             if not math.isfinite(value):
                 raise ValueError(non_finite_message(f"hydrogel.{name}", value, field_range(GelSpec, name),
                                                     field_unit(GelSpec, name)))
+        if self.chambers is not None:
+            self._check_chambers()
+        elif self.chamber_wall_thickness is not None or self.strain_limit_position is not None:
+            name = "chamber_wall_thickness" if self.chamber_wall_thickness is not None else "strain_limit_position"
+            raise ValueError(f"{name}: only with chambers (a single-chamber design has no shared wall and its "
+                             f"strain-limit layer on the -x face; got {name} with no [[chambers]])")
         d, c = self.particle_diameter, self.clearance
         if not c < d / 4.0:
             raise ValueError(
@@ -478,6 +632,8 @@ class Design(BaseModel):
             )
         fits = [("cavity_width", self.particles_per_layer, self.resolved_cavity_width),
                 ("cavity_length", self.particle_layers, self.resolved_cavity_length)]
+        if self.chambers is not None:  # each chamber's particles are checked in _check_chambers
+            fits = []
         if self.dimension == 3:
             fits.append(("cavity_depth", 1, self.resolved_cavity_depth))
         for name, count, size in fits:
@@ -778,7 +934,7 @@ def design_to_toml(design: Design, comments: bool = True) -> str:
         lines += [f"# {line}" if line else "#" for line in _HEADER.splitlines()] + [""]
     lines += _field_lines(design, comments, design)
     for name, info in Design.model_fields.items():
-        if submodel(Design, [name]) is None:
+        if submodel(Design, [name]) is None or name == "chambers":
             continue
         if lines and lines[-1] != "":
             lines.append("")
@@ -786,6 +942,21 @@ def design_to_toml(design: Design, comments: bool = True) -> str:
             lines += _comment(info.description or name)
         lines.append(f"[{name}]")
         lines += _field_lines(getattr(design, name), comments, None)
+    if comments and design.chambers is None:
+        lines += ([""] if lines and lines[-1] != "" else []) + _comment(Design.model_fields["chambers"].description) + [
+            "# [[chambers]]", "# [[chambers]]", "# temperature = 295.0", "# [chambers.hydrogel]",
+            "# A0 = -12.4974  # PNIPAM's chi(T) shifted 10 K down (docs/chambers.md)", "# A1 = 17.351"]
+    for k, chamber in enumerate(design.chambers or ()):
+        if lines and lines[-1] != "":
+            lines.append("")
+        if comments and k == 0:
+            lines += _comment(Design.model_fields["chambers"].description)
+        lines.append("[[chambers]]")
+        lines += [f"{key} = {toml_value(value)}" for key, value in chamber.model_dump(exclude_none=True).items()
+                  if key != "hydrogel"]
+        if chamber.hydrogel is not None:
+            lines += ["", "[chambers.hydrogel]"]
+            lines += [f"{key} = {toml_value(value)}" for key, value in chamber.hydrogel.model_dump().items()]
     while lines and lines[-1] == "":
         lines.pop()
     return "\n".join(lines) + "\n"

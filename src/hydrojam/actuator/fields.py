@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hydrojam.actuator.model import MEMBRANE, PARTICLES, STRAIN_LIMIT_LAYER, ActuatorModel
+from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel
 
 
 def _plane_strain_3d(F: np.ndarray) -> np.ndarray:
@@ -24,8 +24,7 @@ def cell_fields(model: ActuatorModel, x: np.ndarray, s: float) -> dict[str, np.n
     n = model.mesh.n_cells
     sigma = np.zeros((n, 3, 3))
     swell = np.ones(n)
-    cells_of = {MEMBRANE: model.mesh.cell_groups[MEMBRANE], STRAIN_LIMIT_LAYER: model.mesh.cell_groups[STRAIN_LIMIT_LAYER],
-                PARTICLES: np.concatenate(model.particle_cells)}
+    cells_of = model.block_cells()
     materials = model.materials_at(s)
     for name, F in model.solid.deformation_gradients(x).items():
         cells, mat = cells_of[name], materials[name]
@@ -33,7 +32,7 @@ def cell_fields(model: ActuatorModel, x: np.ndarray, s: float) -> dict[str, np.n
         J = np.linalg.det(F3)
         P = mat.evaluate(F3, tangent=False).stress
         sigma[cells] = (np.einsum("eqij,eqkj->eqik", P, F3) / J[..., None, None]).mean(axis=1)
-        if name == PARTICLES:  # the gel
+        if name not in (MEMBRANE, STRAIN_LIMIT_LAYER):  # a gel
             swell[cells] = np.mean(mat.params.lambda0**3 * J, axis=1)
     dev = sigma - np.trace(sigma, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
     vm = np.sqrt(1.5 * np.einsum("eij,eij->e", dev, dev))

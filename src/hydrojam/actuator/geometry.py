@@ -82,11 +82,223 @@ def particle_centres(design: Design) -> np.ndarray:
     return np.array([(x, z) for z in zs for x in xs])
 
 
+def chamber_layout(design: Design) -> list[tuple[float, float]]:
+    """The cavities of a multi-chamber design along x, as (x_min, x_max) [mm], chamber by chamber
+    from -x: side by side, the shared wall's mid-line on x = 0 (2D, two chambers)."""
+    half = design.resolved_chamber_wall / 2
+    (w0, w1) = (ch.cavity_width for ch in design.resolved_chambers)
+    return [(-half - w0, -half), (half, half + w1)]
+
+
+def chamber_particles(design: Design) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Particle centres (n, 2) [mm] and radii (n,) [mm] of a multi-chamber design, chamber by
+    chamber (the first on -x) and within it layer by layer from the clamp as in
+    :func:`particle_centres`; and how many particles each chamber holds."""
+    lc, t1 = design.resolved_cavity_length, design.end_wall_thickness
+    centres, radii, counts = [], [], []
+    for ch, (x0, x1) in zip(design.resolved_chambers, chamber_layout(design)):
+        d, m, pl = ch.particle_diameter, ch.particles_per_layer, ch.particle_layers
+        gx = (x1 - x0 - m * d) / (m + 1)
+        gz = (lc - pl * d) / (pl + 1)
+        xs = x0 + gx + d / 2 + np.arange(m) * (d + gx)
+        zs = -t1 - gz - d / 2 - np.arange(pl) * (d + gz)
+        centres += [(x, z) for z in zs for x in xs]
+        radii += [d / 2] * (m * pl)
+        counts.append(m * pl)
+    return np.array(centres), np.array(radii), counts
+
+
+def actuator_2d_chambers(design: Design, order: int = 2) -> Mesh:
+    """Plane-strain actuator of two chambers side by side along x (docs/chambers.md), lengths in mm.
+
+    Cavities as :func:`chamber_layout` (z in [-t1 - cavity_length, -t1]); the membrane round them,
+    side walls t0 outside, the shared wall between them; the strain-limit layer (thickness h)
+    bonded on the -x or +x outer face over the full length, or the shared wall itself made of
+    the strain-limit elastomer (``strain_limit_position`` "middle"), or none. The shared wall is
+    split on x = 0, a line of nodes from the clamp to the free end (the metrics' centreline), and
+    an outer layer at its mid-line as in :func:`actuator_2d`. Particles: separate disks.
+
+    Cell groups "membrane", "strain_limit_layer" (absent with "none"), "particle0", ... (chamber
+    by chamber); facet groups "clamp", "free_end", "cavity" (both cavities' walls) and
+    "particle<k>_boundary".
+    """
+    lc, t0, t1, h = design.resolved_cavity_length, design.side_wall_thickness, design.end_wall_thickness, \
+        design.strain_limit_thickness
+    half = design.resolved_chamber_wall / 2
+    length = lc + 2 * t1
+    (a0, a1), (b0, b1) = chamber_layout(design)
+    xl, xr = a0 - t0, b1 + t0
+    where = design.resolved_strain_limit_position
+    centres, radii, _ = chamber_particles(design)
+    tol = 1e-6 * length
+    with gmsh_session():
+        set_mesh_size(design.mesh.size)
+        occ = gmsh.model.occ
+        left = occ.cut([(2, occ.addRectangle(xl, -length, 0.0, -half - xl, length))],
+                       [(2, occ.addRectangle(a0, -t1 - lc, 0.0, a1 - a0, lc))])[0]
+        right = occ.cut([(2, occ.addRectangle(half, -length, 0.0, xr - half, length))],
+                        [(2, occ.addRectangle(b0, -t1 - lc, 0.0, b1 - b0, lc))])[0]
+        pieces = left + right + [(2, occ.addRectangle(-half, -length, 0.0, half, length)),
+                                 (2, occ.addRectangle(0.0, -length, 0.0, half, length))]
+        if where == "-x":
+            pieces += [(2, occ.addRectangle(xl - h, -length, 0.0, h / 2, length)),
+                       (2, occ.addRectangle(xl - h / 2, -length, 0.0, h / 2, length))]
+        elif where == "+x":
+            pieces += [(2, occ.addRectangle(xr, -length, 0.0, h / 2, length)),
+                       (2, occ.addRectangle(xr + h / 2, -length, 0.0, h / 2, length))]
+        (frag, _) = occ.fragment(pieces, [])
+        particles = [occ.addDisk(c[0], c[1], 0.0, r, r) for c, r in zip(centres, radii)]
+        occ.synchronize()
+        body = [t for d, t in frag if d == 2]
+
+        def is_sll(t):
+            bb = bounding_box(2, t)
+            if where == "-x":
+                return bb[1, 0] <= xl + tol
+            if where == "+x":
+                return bb[0, 0] >= xr - tol
+            return where == "middle" and bb[0, 0] >= -half - tol and bb[1, 0] <= half + tol
+
+        sll = [t for t in body if is_sll(t)]
+        mem = [t for t in body if t not in sll]
+        walls = gmsh.model.getBoundary([(2, t) for t in body], combined=True, oriented=False)
+        clamp, free_end, cavity_curves = [], [], []
+        for _, c in walls:
+            bb = bounding_box(1, c)
+            if abs(bb[0, 1]) < tol and abs(bb[1, 1]) < tol:
+                clamp.append(c)
+            elif abs(bb[0, 1] + length) < tol and abs(bb[1, 1] + length) < tol:
+                free_end.append(c)
+            elif bb[0, 1] >= -length + t1 - tol and bb[1, 1] <= -t1 + tol and any(
+                    bb[0, 0] >= x0 - tol and bb[1, 0] <= x1 + tol for x0, x1 in ((a0, a1), (b0, b1))):
+                cavity_curves.append(c)
+        cells = {MEMBRANE: mem}
+        if sll:
+            cells[STRAIN_LIMIT_LAYER] = sll
+        facets = {"clamp": clamp, "free_end": free_end, "cavity": cavity_curves}
+        for k, p in enumerate(particles):
+            cells[f"particle{k}"] = [p]
+            facets[f"particle{k}_boundary"] = [t for _, t in gmsh.model.getBoundary([(2, p)], oriented=False)]
+        add_groups(2, cells, facets)
+        return generate(2, order)
+
+
+def actuator_3d_chambers(design: Design, order: int = 2) -> Mesh:
+    """The two-chamber actuator of :func:`actuator_2d_chambers` in 3D, quadratic tetrahedra, lengths
+    in mm: every body extruded over the depth (cavities D = ``resolved_cavity_depth``, walls
+    D + 2 t0), particles spheres on y = 0; the half y >= 0 with ``mesh.symmetry`` (half spheres,
+    the cut faces on y = 0), else the whole actuator drawn as two halves glued on y = 0.
+
+    Cell and facet groups as :func:`actuator_3d`'s ("strain_limit_layer" absent with
+    ``strain_limit_position`` "none"); the shared wall is split on x = 0, so that its mid-surface's
+    line on y = 0 is a line of nodes (the metrics' centreline).
+    """
+    lc, t0, t1, h = design.resolved_cavity_length, design.side_wall_thickness, design.end_wall_thickness, \
+        design.strain_limit_thickness
+    D = design.resolved_cavity_depth
+    half = design.resolved_chamber_wall / 2
+    length = lc + 2 * t1
+    (a0, a1), (b0, b1) = chamber_layout(design)
+    xl, xr, y_out = a0 - t0, b1 + t0, D / 2 + t0
+    where = design.resolved_strain_limit_position
+    centres, radii, _ = chamber_particles(design)
+    symmetry = design.mesh.symmetry
+    tol = 0.05 * min(t0, t1, h, 2 * half)
+    with gmsh_session():
+        set_mesh_size(design.mesh.size)
+        occ = gmsh.model.occ
+
+        def box(x0, x1):
+            return (3, occ.addBox(x0, 0.0, -length, x1 - x0, y_out, length))
+
+        left = occ.cut([box(xl, -half)], [(3, occ.addBox(a0, 0.0, -t1 - lc, a1 - a0, D / 2, lc))])[0]
+        right = occ.cut([box(half, xr)], [(3, occ.addBox(b0, 0.0, -t1 - lc, b1 - b0, D / 2, lc))])[0]
+        walls = left + right + [box(-half, 0.0), box(0.0, half)]
+        if where == "-x":
+            walls += [box(xl - h, xl - h / 2), box(xl - h / 2, xl)]
+        elif where == "+x":
+            walls += [box(xr, xr + h / 2), box(xr + h / 2, xr + h)]
+        particles = []
+        for (cx, cz), r in zip(centres, radii):
+            ball = occ.addSphere(cx, 0.0, cz, r)
+            cut = occ.addBox(cx - 2 * r, 0.0, cz - 2 * r, 4 * r, 2 * r, 4 * r)
+            (part, _) = occ.intersect([(3, ball)], [(3, cut)])
+            particles.append(part)
+        if not symmetry:
+            mirrored = occ.copy(walls)
+            occ.mirror(mirrored, 0.0, 1.0, 0.0, 0.0)
+            walls = walls + mirrored
+            for k, part in enumerate(particles):
+                other = occ.copy(part)
+                occ.mirror(other, 0.0, 1.0, 0.0, 0.0)
+                (glued, _) = occ.fragment(part, other)
+                particles[k] = glued
+        (frag, _) = occ.fragment(walls, [])
+        occ.synchronize()
+        body = [t for d, t in frag if d == 3]
+
+        def is_sll(t):
+            bb = bounding_box(3, t)
+            if where == "-x":
+                return bb[1, 0] <= xl + tol
+            if where == "+x":
+                return bb[0, 0] >= xr - tol
+            return where == "middle" and bb[0, 0] >= -half - tol and bb[1, 0] <= half + tol
+
+        sll = [t for t in body if is_sll(t)]
+        mem = [t for t in body if t not in sll]
+        particle_tags = [[t for d, t in part if d == 3] for part in particles]
+
+        def faces_of(volumes, combined=True):
+            return [t for _, t in gmsh.model.getBoundary([(3, v) for v in volumes], combined=combined,
+                                                          oriented=False)]
+
+        def on_plane(t, axis, value):
+            bb = bounding_box(2, t)
+            return abs(bb[0, axis] - value) < tol and abs(bb[1, axis] - value) < tol
+
+        wall_faces = faces_of(body)
+        clamp = [t for t in wall_faces if on_plane(t, 2, 0.0)]
+        free_end = [t for t in wall_faces if on_plane(t, 2, -length)]
+        cut = [t for t in wall_faces if on_plane(t, 1, 0.0)]
+        cavity_faces = []
+        for t in wall_faces:
+            bb = bounding_box(2, t)
+            if t not in cut and bb[0, 1] >= -D / 2 - tol and bb[1, 1] <= D / 2 + tol \
+                    and bb[0, 2] >= -t1 - lc - tol and bb[1, 2] <= -t1 + tol and any(
+                        bb[0, 0] >= x0 - tol and bb[1, 0] <= x1 + tol for x0, x1 in ((a0, a1), (b0, b1))):
+                cavity_faces.append(t)
+        cells = {MEMBRANE: mem}
+        if sll:
+            cells[STRAIN_LIMIT_LAYER] = sll
+        facets = {"clamp": clamp, "free_end": free_end, "cavity": cavity_faces}
+        plane_faces = list(cut)
+        for k, tags in enumerate(particle_tags):
+            cells[f"particle{k}"] = tags
+            surface = faces_of(tags)
+            flat = [t for t in surface if on_plane(t, 1, 0.0)]
+            facets[f"particle{k}_boundary"] = [t for t in surface if t not in flat]
+            plane_faces += flat
+        if symmetry:
+            facets["symmetry"] = plane_faces
+        else:
+            inner = set(faces_of(body, combined=False)) - set(wall_faces)
+            plane_faces = [t for t in inner if on_plane(t, 1, 0.0)]
+            for tags in particle_tags:
+                plane_faces += [t for t in set(faces_of(tags, combined=False)) - set(faces_of(tags))
+                                if on_plane(t, 1, 0.0)]
+            facets["mid_plane"] = plane_faces
+        add_groups(3, cells, facets)
+        return generate(3, order)
+
+
 def mesh_design(design: Design) -> Mesh:
     """The quadratic-triangle mesh of a 2D design (groups as in :func:`actuator_2d`); a 3D design:
     :func:`mesh_design_3d`."""
     if design.dimension == 3:
-        return mesh_design_3d(design)
+        return mesh_design_3d(design) if design.chambers is None else actuator_3d_chambers(design)
+    if design.chambers is not None:
+        return actuator_2d_chambers(design)
     return actuator_2d(
         design.resolved_cavity_width, design.resolved_cavity_length, design.side_wall_thickness,
         design.end_wall_thickness, design.strain_limit_thickness, particle_centres(design),
@@ -105,7 +317,7 @@ def replica_offsets(design: Design) -> np.ndarray:
     replica is the same on every machine and NumPy version. Neighbours then keep a gap of at least
     (1 - 2 jitter) c.
     """
-    n = len(particle_centres(design))
+    n = len(particle_centres(design)) if design.chambers is None else len(chamber_particles(design)[0])
     dim = design.dimension
     spec = design.replicas
     if spec.index == 0:

@@ -70,7 +70,12 @@ class Metric:
 STATE_METRICS: tuple[Metric, ...] = (
     Metric("bending_angle_deg", "deg", "free-end face rotation, positive toward the strain-limit side "
            "(past 180 for a curled actuator)", float, "state", "θ"),
+    Metric("bending_plane_deg", "deg", "direction in x-y toward which the free end swings, from +x toward +y "
+           "(180: toward -x, the single chamber's strain-limit side; None while straight)", float, "state", "φ"),
+    Metric("twist_deg", "deg", "free-end rotation about the axis left after its swing, right-handed about +z "
+           "(None near a half turn of bending)", float, "state", "ψ"),
     Metric("tip_dx_mm", "mm", "free-end face centroid displacement along x", float, "state", "δx"),
+    Metric("tip_dy_mm", "mm", "free-end face centroid displacement along y (0 in 2D)", float, "state", "δy"),
     Metric("tip_dz_mm", "mm", "free-end face centroid displacement along z", float, "state", "δz"),
     Metric("curling_index", "-", "share of the centreline rotation in the clamp half (None while straight)",
            float, "state", "curling index"),
@@ -325,6 +330,53 @@ def bending_angle_3d_deg(X_face, x_face) -> float:
         d_cur = -d_cur
     angle = float(np.degrees(_clockwise_angle(d_ref, d_cur)))
     return 180.0 if angle <= -180.0 else angle
+
+
+def face_rotation_matrix(X_face, x_face) -> np.ndarray:
+    """The rotation (3, 3) that best carries a face's centred reference node positions onto its
+    current ones (least squares: Kabsch's SVD, with the sign fixed to a proper rotation).
+
+    X_face, x_face: (m, 3) positions [mm], m >= 3, not all on one line (a flat face is enough).
+    """
+    X, x = np.asarray(X_face, dtype=float), np.asarray(x_face, dtype=float)
+    if X.ndim != 2 or X.shape[1] != 3 or X.shape != x.shape or len(X) < 3:
+        raise ValueError(f"need reference and current face positions of equal shape (m >= 3, 3), got {X.shape}, {x.shape}")
+    H = (X - X.mean(axis=0)).T @ (x - x.mean(axis=0))
+    U, _, Vt = np.linalg.svd(H)
+    sign = 1.0 if np.linalg.det(Vt.T @ U.T) >= 0.0 else -1.0
+    return Vt.T @ np.diag([1.0, 1.0, sign]) @ U.T
+
+
+#: below this [rad] of bending, swing-twist is measured but the bending plane is undefined; within
+#: this of a half turn the swing's axis is undefined, and so is the twist
+_HALF_TURN_MARGIN = 1.0e-6
+
+
+def swing_twist_deg(R) -> tuple[float | None, float | None]:
+    """The bending plane's direction and the twist [deg] of a free-end rotation ``R`` (3, 3).
+
+    ``R`` is split into a swing (the least rotation taking the axis e_z to R e_z, about an axis
+    in x-y) after a twist about e_z: R = S T. The bending plane's direction is that in x-y of the
+    free end's outward axis R (-e_z), from +x toward +y: 180 for bending toward -x (the single
+    chamber's strain-limit side), 0 toward +x; None below :data:`STRAIGHT_ROTATION_RAD` of swing.
+    The twist is T's angle, right-handed about +z, in (-180, 180]; None where the swing is within
+    1e-6 rad of a half turn (its axis undefined).
+    """
+    R = np.asarray(R, dtype=float)
+    t = R[:, 2]
+    horizontal = float(np.hypot(t[0], t[1]))
+    swing = float(np.arctan2(horizontal, t[2]))
+    plane = None if swing < STRAIGHT_ROTATION_RAD else float(np.degrees(np.arctan2(-t[1], -t[0])))
+    if plane is not None and plane <= -180.0:  # (-180, 180]: a bend toward -x reads 180 whatever the sign of 0
+        plane = 180.0
+    if 1.0 + t[2] < _HALF_TURN_MARGIN:
+        return plane, None
+    v = np.array([-t[1], t[0], 0.0])  # e_z x t
+    vx = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    S = np.eye(3) + vx + vx @ vx / (1.0 + t[2])  # Rodrigues: e_z onto t
+    T = S.T @ R
+    twist = float(np.degrees(np.arctan2(T[1, 0], T[0, 0])))
+    return plane, (180.0 if twist <= -180.0 else twist)
 
 
 def enclosed_volume(points, triangles) -> float:
@@ -668,8 +720,9 @@ class Gauges:
         diameter) or volume [mm^3] (3D: of the meshed particles, their halves in a half model).
     solid : Solid
         The model's solid (:class:`hydrojam.fem.assembly.Solid`): the particles' current volumes.
-    particle_block : str
-        The name of its block holding the particles' cells, particle by particle.
+    particle_block : str or tuple of str
+        The name of its block holding the particles' cells, particle by particle (a multi-chamber
+        design: one block per chamber, in order).
     particle_bounds : ndarray of int, shape (n_particles - 1,)
         Where each particle's cells start in that block, after the first particle's.
     contact : Contact
@@ -679,7 +732,12 @@ class Gauges:
     particles_per_layer : int
         Particles side by side in a layer.
     particle_diameter : float
-        The as-prepared particle diameter d [mm].
+        The as-prepared particle diameter d [mm] (several chambers: the smallest).
+    chamber_layers : tuple of (int, int)
+        A multi-chamber design's (layers, particles per layer) of each chamber, in the order of
+        ``particle_nodes``; empty for one chamber (``particles_per_layer`` then holds).
+    mirror_y : bool
+        The 3D half model: the free-end face is mirrored about y = 0 for its rotation.
     """
 
     reference: np.ndarray
@@ -695,6 +753,8 @@ class Gauges:
     particle_nodes: tuple[np.ndarray, ...] = ()
     particles_per_layer: int = 1
     particle_diameter: float = 0.0
+    chamber_layers: tuple[tuple[int, int], ...] = ()
+    mirror_y: bool = False
 
 
 def particle_volumes(gauges: Gauges, x: np.ndarray) -> np.ndarray:
@@ -712,7 +772,9 @@ def particle_volumes(gauges: Gauges, x: np.ndarray) -> np.ndarray:
     -------
     ndarray, shape (n_particles,)
     """
-    per_cell = gauges.solid.current_volumes(x)[gauges.particle_block]
+    volumes = gauges.solid.current_volumes(x)
+    block = gauges.particle_block
+    per_cell = volumes[block] if isinstance(block, str) else np.concatenate([volumes[b] for b in block])
     return np.array([part.sum() for part in np.split(per_cell, gauges.particle_bounds)])
 
 
@@ -746,6 +808,12 @@ def measure(gauges: Gauges, x: np.ndarray) -> dict:
     if X.shape[1] == 3:
         xz = [0, 2]
         dx, dz = tip_displacement(X[fe][:, xz], x[fe][:, xz])
+        Xf, xf = X[fe], x[fe]
+        if gauges.mirror_y:  # the whole face: the half and its mirror image
+            flip = np.array([1.0, -1.0, 1.0])
+            Xf, xf = np.vstack([Xf, Xf * flip]), np.vstack([xf, xf * flip])
+        direction, twist = swing_twist_deg(face_rotation_matrix(Xf, xf))
+        dy = float((xf[:, 1] - Xf[:, 1]).mean())
         profile = centreline_profile(X[cl][:, xz], x[cl][:, xz])
         angle = bending_angle_3d_deg(X[fe], x[fe])
         cavity = enclosed_volume(x, gauges.cavity_segments)
@@ -753,6 +821,7 @@ def measure(gauges: Gauges, x: np.ndarray) -> dict:
         dx, dz = tip_displacement(X[fe], x[fe])
         profile = centreline_profile(X[cl], x[cl])
         angle = bending_angle_deg(X[fe], x[fe])
+        dy, twist, direction = 0.0, 0.0, None  # plane strain: no y, no twist; the plane from the angle's sign below
         cavity = polygon_area(x, gauges.cavity_segments)
     particles = float(particle_volumes(gauges, x).sum())
     ci = curling_index(profile)
@@ -760,13 +829,23 @@ def measure(gauges: Gauges, x: np.ndarray) -> dict:
     folds = 0
     if gauges.particle_nodes:
         centres = np.array([x[nodes][:, plane].mean(axis=0) for nodes in gauges.particle_nodes])
-        layers = centres.reshape(-1, gauges.particles_per_layer, 2).mean(axis=1)
-        folds = column_folds(layers, x[cl][:, plane], gauges.particle_diameter)
+        shapes = gauges.chamber_layers or ((len(centres) // gauges.particles_per_layer, gauges.particles_per_layer),)
+        start = 0
+        for n_layers, per_layer in shapes:  # each chamber's column on its own
+            chamber = centres[start:start + n_layers * per_layer]
+            start += n_layers * per_layer
+            layers = chamber.reshape(-1, per_layer, 2).mean(axis=1)
+            folds += column_folds(layers, x[cl][:, plane], gauges.particle_diameter)
     # the face's rotation is known modulo a turn: the centreline's, unwrapped, picks the turn
     angle = unwrapped_angle_deg(angle, float(np.degrees(profile.rotation[-1])))
+    if X.shape[1] == 2 and abs(angle) >= np.degrees(STRAIGHT_ROTATION_RAD):
+        direction = 180.0 if angle > 0.0 else 0.0
     values = {
         "bending_angle_deg": float(angle) + 0.0,  # + 0.0: no "-0.0" in results
+        "bending_plane_deg": None if direction is None else float(direction) + 0.0,
+        "twist_deg": None if twist is None else float(twist) + 0.0,
         "tip_dx_mm": float(dx) + 0.0,
+        "tip_dy_mm": float(dy) + 0.0,
         "tip_dz_mm": float(dz) + 0.0,
         "curling_index": None if ci is None else float(ci),
         "max_curvature_per_mm": float(np.max(np.abs(profile.curvature))),

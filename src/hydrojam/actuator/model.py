@@ -56,6 +56,12 @@ MEMBRANE_BODY, STRAIN_LIMIT_BODY, PARTICLE_BODY = 0, 1, 2
 PARTICLES = "particles"
 
 
+def particle_block(chamber: int) -> str:
+    """The name of the solid's block holding chamber ``chamber``'s particles: PARTICLES for the
+    first (a single chamber's), then "particles1", ..."""
+    return PARTICLES if chamber == 0 else f"{PARTICLES}{chamber}"
+
+
 def check_supported(design: Design) -> None:
     """Refuse, before any work, what the schema holds but the simulator does not do (nothing at
     present: 2D and 3D designs are both simulated; the design's own checks refuse bad ones)."""
@@ -90,6 +96,10 @@ class ActuatorModel:
     gauges: Gauges  # what the state metrics read (actuator.metrics.measure)
     #: 3D half model: the nodes on the symmetry plane y = 0, held at u_y = 0 (None otherwise)
     symmetry_nodes: np.ndarray | None = None
+    #: multi-chamber designs: each chamber's gel and stimulus path (its own temperature), in the
+    #: order of the blocks of its particles (:func:`particle_block`); empty for one chamber
+    chamber_gels: tuple[Hydrogel, ...] = ()
+    chamber_paths: tuple[StimulusPath, ...] = ()
 
     @property
     def half(self) -> bool:
@@ -100,13 +110,33 @@ class ActuatorModel:
     def n_particles(self) -> int:
         return len(self.particle_cells)
 
+    def block_cells(self) -> dict[str, np.ndarray]:
+        """The cell indices of every block of the solid, by name (MEMBRANE, STRAIN_LIMIT_LAYER where
+        the design has one, and each chamber's particles, :func:`particle_block`)."""
+        groups = self.mesh.cell_groups
+        out = {name: groups[name] for name in (MEMBRANE, STRAIN_LIMIT_LAYER) if name in groups}
+        counts = [len(self.particle_cells)] if not self.chamber_gels else [
+            ch.particle_layers * ch.particles_per_layer for ch in self.design.resolved_chambers]
+        starts = np.concatenate([[0], np.cumsum(counts)])
+        for k in range(len(counts)):
+            out[particle_block(k)] = np.concatenate(self.particle_cells[starts[k]:starts[k + 1]])
+        return out
+
     def stimulus(self, s: float) -> tuple[float, float]:
         """(mu [k_B T], T [K]) at load parameter s."""
         return self.path(s)
 
     def materials_at(self, s: float) -> dict[str, Material]:
         """Material of every block by name (MEMBRANE, STRAIN_LIMIT_LAYER, PARTICLES) at load
-        parameter s (the gel at the stimulus of s)."""
+        parameter s (the gel at the stimulus of s; with chambers each chamber's gel at its own
+        stimulus of s, and no STRAIN_LIMIT_LAYER where the design has none)."""
+        if self.chamber_gels:  # each chamber's gel at its own stimulus; a design may have no strain-limit layer
+            out = {MEMBRANE: self.membrane}
+            if STRAIN_LIMIT_LAYER in self.solid.block_names:
+                out[STRAIN_LIMIT_LAYER] = self.strain_limit
+            for k, (gel, path) in enumerate(zip(self.chamber_gels, self.chamber_paths)):
+                out[particle_block(k)] = gel.at(*path(s))
+            return out
         mu, T = self.path(s)
         return {MEMBRANE: self.membrane, STRAIN_LIMIT_LAYER: self.strain_limit, PARTICLES: self.gel.at(mu, T)}
 
@@ -149,6 +179,8 @@ def centreline_x(design: Design) -> float:
     """x [mm] of the strain-limit layer's mid-line (mid-surface in 3D), the centreline of the
     metrics; it runs from the clamp at z = 0 to the free end at z = -length."""
     design = design.resolved()
+    if design.chambers is not None:  # the shared wall's mid-line
+        return 0.0
     return -design.resolved_cavity_width / 2 - design.side_wall_thickness - design.strain_limit_thickness / 2
 
 
@@ -163,8 +195,8 @@ def _wall_bands(mesh: Mesh, design: Design, components: np.ndarray) -> np.ndarra
 def outer_faces(mesh: Mesh) -> np.ndarray:
     """The walls' outer surface, outward (nf, nfn): the membrane's and the strain-limit layer's
     boundary facets but the cavity's, the clamped face and the cut faces on a symmetry plane."""
-    walls = np.concatenate([mesh.cell_groups[MEMBRANE], mesh.cell_groups[STRAIN_LIMIT_LAYER]])
-    facets = mesh.boundary_facets(walls)
+    walls = np.concatenate([mesh.cell_groups[MEMBRANE], mesh.cell_groups.get(STRAIN_LIMIT_LAYER, [])])
+    facets = mesh.boundary_facets(walls.astype(np.int64))
     corners = mesh.dim
 
     def keys(f):
@@ -179,7 +211,11 @@ def outer_faces(mesh: Mesh) -> np.ndarray:
 
 def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
     x_mid = centreline_x(design)
-    nodes = np.unique(mesh.cells[mesh.cell_groups[STRAIN_LIMIT_LAYER]])
+    if design.chambers is not None:  # the shared wall's mid-line, through the end walls
+        nodes = np.unique(mesh.cells[np.concatenate([mesh.cell_groups[g] for g in (MEMBRANE, STRAIN_LIMIT_LAYER)
+                                                     if g in mesh.cell_groups])])
+    else:
+        nodes = np.unique(mesh.cells[mesh.cell_groups[STRAIN_LIMIT_LAYER]])
     tol = 1e-6 * design.length
     on = nodes[np.abs(mesh.points[nodes, 0] - x_mid) < tol]
     if mesh.dim == 3:  # the mid-surface's line on the plane y = 0
@@ -203,19 +239,29 @@ def build_model(design: Design) -> ActuatorModel:
     check_supported(design)
     mesh = jitter_particles(mesh_design(design), design)
     el = element_for_meshio_type(mesh.cell_type)
-    n_p = design.particle_layers * design.particles_per_layer
-    particle_cells = [mesh.cell_groups[f"particle{k}"] for k in range(n_p)]
     gel = Hydrogel(design.hydrogel)
     membrane = design.membrane.material()
     strain_limit = design.strain_limit_layer.material()
-    solid = Solid(mesh.points, [
-        Block(mesh.cells[mesh.cell_groups[MEMBRANE]], el, membrane, MEMBRANE),
-        Block(mesh.cells[mesh.cell_groups[STRAIN_LIMIT_LAYER]], el, strain_limit, STRAIN_LIMIT_LAYER),
-        Block(mesh.cells[np.concatenate(particle_cells)], el, gel, PARTICLES),
-    ])
+    chambers = design.resolved_chambers
+    if chambers is None:
+        counts, chamber_gels = [design.particle_layers * design.particles_per_layer], ()
+        gels = [gel]
+    else:
+        counts = [ch.particle_layers * ch.particles_per_layer for ch in chambers]
+        chamber_gels = tuple(Hydrogel(ch.hydrogel) for ch in chambers)
+        gels = list(chamber_gels)
+    n_p = sum(counts)
+    particle_cells = [mesh.cell_groups[f"particle{k}"] for k in range(n_p)]
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    blocks = [Block(mesh.cells[mesh.cell_groups[MEMBRANE]], el, membrane, MEMBRANE)]
+    if STRAIN_LIMIT_LAYER in mesh.cell_groups:
+        blocks.append(Block(mesh.cells[mesh.cell_groups[STRAIN_LIMIT_LAYER]], el, strain_limit, STRAIN_LIMIT_LAYER))
+    blocks += [Block(mesh.cells[np.concatenate(particle_cells[starts[k]:starts[k + 1]])], el, g, particle_block(k))
+               for k, g in enumerate(gels)]
+    solid = Solid(mesh.points, blocks)
     components = np.full(mesh.n_nodes, WALL_COMPONENT)
     body_id = np.full(mesh.n_cells, MEMBRANE_BODY)
-    body_id[mesh.cell_groups[STRAIN_LIMIT_LAYER]] = STRAIN_LIMIT_BODY
+    body_id[mesh.cell_groups.get(STRAIN_LIMIT_LAYER, [])] = STRAIN_LIMIT_BODY
     for k, cells in enumerate(particle_cells):
         components[np.unique(mesh.cells[cells])] = k
         body_id[cells] = PARTICLE_BODY + k
@@ -248,10 +294,17 @@ def build_model(design: Design) -> ActuatorModel:
     # the particles' as-prepared total: in 2D the circles' area, in 3D the meshed volume (of their
     # halves in a half model), measured once the gauges can measure it
     circles = n_p * np.pi * design.particle_diameter**2 / 4
+    if chambers is None:
+        block_names, layer_sizes, diameter = PARTICLES, (), design.particle_diameter
+    else:
+        circles = sum(n * np.pi * ch.particle_diameter**2 / 4 for n, ch in zip(counts, chambers))
+        block_names = tuple(particle_block(k) for k in range(len(chambers)))
+        layer_sizes = tuple((ch.particle_layers, ch.particles_per_layer) for ch in chambers)
+        diameter = min(ch.particle_diameter for ch in chambers)
     gauges = Gauges(mesh.points, mesh.group_nodes("free_end"), centreline, segments, tuple(range(n_p)), circles,
-                    solid, PARTICLES, np.cumsum([len(c) for c in particle_cells])[:-1], contact,
+                    solid, block_names, np.cumsum([len(c) for c in particle_cells])[:-1], contact,
                     tuple(np.unique(mesh.cells[cells]) for cells in particle_cells), design.particles_per_layer,
-                    design.particle_diameter)
+                    diameter, chamber_layers=layer_sizes, mirror_y=bool(design.dimension == 3 and design.mesh.symmetry))
     if design.dimension == 3:
         gauges = replace(gauges, reference_volume=float(particle_volumes(gauges, mesh.points).sum()))
     if design.stimulus.schedule is not None:  # time-resolved: the particles' kinetics set the path
@@ -260,12 +313,15 @@ def build_model(design: Design) -> ActuatorModel:
     else:
         path = stimulus_path(design.hydrogel, design.stimulus.mu, design.stimulus.temperature,
                              design.stimulus.path, dimension=design.dimension)
+    chamber_paths = () if chambers is None else tuple(
+        stimulus_path(ch.hydrogel, design.stimulus.mu, ch.temperature, design.stimulus.path, dimension=design.dimension)
+        for ch in chambers)
     return ActuatorModel(
         design=design, mesh=mesh, solid=solid, contact=contact, path=path, membrane=membrane,
         strain_limit=strain_limit, gel=gel, clamp_nodes=mesh.group_nodes("clamp"),
         free_end_nodes=gauges.free_end_nodes, centreline_nodes=centreline,
         particle_cells=particle_cells, cavity_segments=segments, body_id=body_id, components=components,
-        gauges=gauges, symmetry_nodes=symmetry_nodes,
+        gauges=gauges, symmetry_nodes=symmetry_nodes, chamber_gels=chamber_gels, chamber_paths=chamber_paths,
     )
 
 

@@ -117,7 +117,8 @@ def plot_actuator(model, state, path: str | os.PathLike, render: np.ndarray | No
     ax.set_xlim(allp[:, 0].min() - pad, allp[:, 0].max() + pad)
     ax.set_ylim(allp[:, 1].min() - pad, allp[:, 1].max() + pad)
     ax.set_aspect("equal")
-    ax.set_xlabel("x [mm]  (strain-limit layer on the -x side)")
+    chambers = model.design.chambers is not None
+    ax.set_xlabel("x [mm]" + ("  (chambers side by side)" if chambers else "  (strain-limit layer on the -x side)"))
     ax.set_ylabel("z [mm]")
     fig.colorbar(pc, ax=ax, shrink=0.8, label="particle swelling ratio J (volume / dry volume)")
     m = state.metrics
@@ -133,9 +134,10 @@ def plot_actuator(model, state, path: str | os.PathLike, render: np.ndarray | No
     if k_max < 1e-6:  # straight: no scale to show round-off at
         ax2.set_ylim(-1.0, 1.0)
     ax2.set_xlabel("arc length from the clamp, as prepared [mm]")
-    ax2.set_ylabel("centreline curvature [1/m]  (> 0: toward the strain-limit layer)")
+    ax2.set_ylabel("centreline curvature [1/m]  (> 0: toward " + ("-x)" if chambers else "the strain-limit layer)"))
     ci = m.get("curling_index")
-    ax2.set_title("strain-limit layer mid-line" + ("" if ci is None else f", curling index {ci:.2f}"), fontsize=10)
+    line = "shared wall's mid-line" if chambers else "strain-limit layer mid-line"
+    ax2.set_title(line + ("" if ci is None else f", curling index {ci:.2f}"), fontsize=10)
     ax3 = ax2.twinx()
     ax3.plot(prof.reference_arc_length, np.degrees(prof.rotation), "--", color="C1")
     ax3.set_ylabel("rotation [deg] (dashed)", color="C1")

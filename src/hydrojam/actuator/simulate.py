@@ -372,7 +372,7 @@ class _Run:
         stab, options = self.stab, self.options
         if stab is not None:
             energies = self.model.solid.with_materials(self.model.materials_at(s)).block_energies(x)
-            e_el = sum([energies[MEMBRANE], energies[STRAIN_LIMIT_LAYER]])  # the elastomers
+            e_el = sum([energies[MEMBRANE], energies.get(STRAIN_LIMIT_LAYER, 0.0)])  # the elastomers
             if e_el > 0:
                 held = rec.damped_energy if options.release.each_step else stab.energy(x)
                 self.ratio = max(self.ratio, held / e_el)

@@ -83,6 +83,9 @@ def check_assessable(design: Design) -> None:
     field): a 3D one, since the empty chamber, the vacuum's outer surface and the contact pressure
     on the membrane are built for 2D only (docs/assess.md, "Limitations")."""
     check_supported(design)
+    if design.chambers is not None:
+        raise DesignError(f"chambers: an assessment takes one chamber (its empty chamber and vacuum load are built for "
+                          f"one; got {len(design.chambers)} chambers)")
     if design.dimension != 2:
         raise DesignError(f"dimension: allowed for an assessment: 2 (got {design.dimension}): the empty chamber, "
                           "the vacuum load and the contact pressure on the membrane are built in 2D only")

@@ -78,7 +78,8 @@ def design_key(design: Design) -> str:
     Equal designs written differently (a derived cavity size left out or written out) share a key.
     Of the ``replicas`` table only what changes the run counts: nothing for replica 0 (the design
     as drawn, the key it had before replicas existed), seed, jitter and index for another; of
-    ``mesh.symmetry`` nothing in 2D; of ``friction_slip`` and ``strain_limit_width`` nothing when omitted.
+    ``mesh.symmetry`` nothing in 2D; of ``friction_slip``, ``strain_limit_width`` and the multi-chamber
+    fields (``chambers``, ``chamber_wall_thickness``, ``strain_limit_position``) nothing when omitted.
 
     Parameters
     ----------
@@ -94,7 +95,8 @@ def design_key(design: Design) -> str:
     replicas = dumped.pop("replicas")
     if design.dimension == 2:  # no symmetry plane in 2D: the key it had before 3D existed
         dumped["mesh"].pop("symmetry", None)
-    for optional in ("friction_slip", "strain_limit_width"):  # omitted: the key it had before the field
+    for optional in ("friction_slip", "strain_limit_width", "chamber_wall_thickness", "strain_limit_position",
+                     "chambers"):  # omitted: the key it had before the field
         if dumped.get(optional) is None:
             dumped.pop(optional, None)
     if replicas["index"] > 0:
