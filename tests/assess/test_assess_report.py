@@ -35,6 +35,16 @@ def _refused(command, design_file, tmp_path, capsys, *args) -> str:
     (["--vacuum-kpa", "150"], "--vacuum-kpa: must be <= 101.325; allowed range (0, 101.325] kPa"),
     (["--temperatures", "250,275"], "--temperatures: each temperature must be in liquid water's range"),
     (["--temperatures", "cold"], "--temperatures: expected comma-separated numbers"),
+    (["--pneumatic-angle", "400"], "--pneumatic-angle: must be <= 360"),
+    (["--pneumatic-angle", "-5"], "--pneumatic-angle: must be > 0"),
+    (["--pneumatic-max-kpa", "0"], "--pneumatic-max-kpa: must be > 0"),
+    (["--pneumatic-max-kpa", "5000"], "--pneumatic-max-kpa: must be <= 1000"),
+    (["--pneumatic-max-kpa", "inf"], "--pneumatic-max-kpa: must be a finite number"),
+    (["--replicas", "0"], "--replicas: must be in [1, "),
+    (["--replicas", "2", "--workers", "0"], "--workers: must be >= 1"),
+    (["--workers", "2"], "--workers: only with --replicas N > 1"),
+    (["--replicas", "2", "--scheduler", "nope://x"], "--scheduler:"),
+    (["--set", "dimension=3", "--pneumatic-angle", "0"], "--pneumatic-angle: must be > 0"),
 ])
 def test_bad_loads_are_refused_before_any_work(tmp_path, design_file, capsys, args, words):
     err = _refused("assess", design_file, tmp_path, capsys, *args)
@@ -154,24 +164,16 @@ def test_design_map_study_validates_every_pair():
     assert len(map_study(QUICK, [1.0, 2.0], [0.023]).points()) == 2
 
 
-@pytest.mark.parametrize("command", ["assess", "design-map"])
-def test_a_3d_design_is_refused_before_any_work(tmp_path, design_file, capsys, command, monkeypatch):
-    """The assessment is built for 2D (the empty chamber, the vacuum load, the membrane's contact
-    pressure): a 3D design is refused before meshing, not after its actuation (it used to end in
-    a traceback from the 2D contact pressure after the 3D actuation had run), from Python too."""
-    import hydrojam.assess.assessment as assessment_module
-    from hydrojam.actuator.design import DesignError
-    from hydrojam.assess.design_map import design_map
+def test_a_3d_design_is_assessable_and_a_replica_folder_keeps_its_loads(tmp_path):
+    """A 3D design (half model or whole) passes the assessment's checks; a replicas' folder
+    assessed under other loads is refused, naming --out, before anything runs or is written."""
+    from hydrojam.assess.assessment import check_assessable
+    from hydrojam.assess.replicas import LOADS_FILE, check_replica_folder
 
-    def no_work(*args, **kwargs):
-        raise AssertionError("a model was built")
-
-    monkeypatch.setattr(assessment_module, "build_model", no_work)
-    err = _refused(command, design_file, tmp_path, capsys, "--set", "dimension=3")
-    assert "dimension: allowed for an assessment: 2 (got 3)" in err and len(err.strip().splitlines()) == 1
-    three = Design(dimension=3, particle_layers=1, mesh={"size": 4.0})
-    with pytest.raises(DesignError, match="dimension: allowed for an assessment: 2"):
-        assess(three)
-    with pytest.raises(DesignError, match="dimension: allowed for an assessment: 2"):
-        design_map(three, [2.0], [0.023], tmp_path / "map")
-    assert not (tmp_path / "map").exists()
+    check_assessable(Design(dimension=3, particle_layers=1, mesh={"size": 4.0}))
+    check_assessable(Design(dimension=3, particle_layers=1, mesh={"size": 4.0, "symmetry": False}))
+    check_replica_folder(tmp_path, Loads())  # nothing there yet
+    (tmp_path / LOADS_FILE).write_text(Loads().model_dump_json())
+    check_replica_folder(tmp_path, Loads())
+    with pytest.raises(AssessError, match="--out: .* holds replicas assessed under other loads"):
+        check_replica_folder(tmp_path, Loads(vacuum_pressure=50.0))
