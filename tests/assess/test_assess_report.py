@@ -177,3 +177,26 @@ def test_a_3d_design_is_assessable_and_a_replica_folder_keeps_its_loads(tmp_path
     check_replica_folder(tmp_path, Loads())
     with pytest.raises(AssessError, match="--out: .* holds replicas assessed under other loads"):
         check_replica_folder(tmp_path, Loads(vacuum_pressure=50.0))
+
+
+def test_the_answer_and_the_trend_are_worded_from_the_numbers():
+    """The answer names the units of its dimension, the pneumatic comparison and the designer's
+    levers; the blocked force's change over T is a trend only beyond 2 standard errors of the
+    difference of the means."""
+    from hydrojam.assess.report import answer, authors_table, blocked_trend
+    from hydrojam.study.spread import spread
+
+    v = {"stiffness_ratio": 12.0, "stiffness_unactuated": 0.01, "stiffness_actuated": 0.12,
+         "stiffness_active_over_pneumatic": 3.0, "pneumatic_angle_deg": 35.0, "pneumatic_pressure_kPa": 20.0,
+         "stiffness_pneumatic": 0.04, "swelling_pressure": 7.0, "contact_pressure_mean": 0.005,
+         "contact_pressure_max": 0.02, "mean_swelling_ratio": 6.0, "bending_angle_deg": 35.0}
+    text = " ".join(answer(v, QUICK, [{"temperature_K": 275.0, "force_x": 0.25}], True))
+    assert "within the 9x-30x" in text and "0.12 N/mm" in text and "3x as stiff" in text
+    assert "0.25 N at 275 K" in text and "smaller beads for speed" in text and "membrane for confinement" in text
+    assert "82 mN/mm" in " ".join(answer(v, QUICK, [{"temperature_K": 275.0, "force_x": 0.082}], False))
+    assert any("| 3x |" in row for row in authors_table(v))
+    stats = {"blocked_force_275K": spread([5.0, 5.5, 6.0, 5.5]), "blocked_force_295K": spread([9.0, 10.0, 9.5, 9.5])}
+    assert "beyond the spread: a trend" in blocked_trend(stats, [275.0, 295.0])
+    stats["blocked_force_295K"] = spread([5.0, 7.0, 4.5, 6.5])
+    assert "within the spread" in blocked_trend(stats, [275.0, 295.0])
+    assert blocked_trend(stats, [275.0]) is None
