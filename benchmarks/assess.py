@@ -84,21 +84,53 @@ def table(out: Path, three_d: bool) -> list[str]:
     return lines
 
 
+def cost_table(out: Path) -> list[str]:
+    """Where one assessment's time goes: each part's Newton iterations and wall time, from
+    OUT/assessment.json (a single assessment; empty for replicas)."""
+    data = json.loads((out / "assessment.json").read_text(encoding="utf-8"))
+    if "replicas" in data:
+        return []
+    v, curves = data["values"], data.get("curves", {})
+    rows = [("actuation", v.get("actuation_newton_iterations"), v.get("actuation_wall_time_s"))]
+    for name in ("unactuated", "actuated"):
+        if name in curves:
+            rows.append((f"tip curve, {name} (8 loads)", curves[name].get("newton_iterations"),
+                         v.get(f"curve_{name}_wall_time_s")))
+    for b in data.get("blocked_force", []):
+        rows.append((f"blocked actuation at {b['temperature_K']:g} K", b.get("newton_iterations"), b.get("wall_time_s")))
+    if "vacuum_newton_iterations" in v:
+        its = v["vacuum_newton_iterations"] + (curves.get("vacuum", {}).get("newton_iterations") or 0)
+        rows.append(("vacuum: jamming, release, tip curve", its, v.get("vacuum_wall_time_s")))
+    if "pneumatic_newton_iterations" in v:
+        rows.append(("pneumatic: pressure to the angle (blocked force not counted in iterations)",
+                     v["pneumatic_newton_iterations"], v.get("pneumatic_wall_time_s")))
+    lines = ["", "| part | Newton iterations | wall [s] |", "|---|---:|---:|"]
+    lines += [f"| {name} | {_g(its, 4)} | {_g(wall, 3)} |" for name, its, wall in rows]
+    lines.append(f"| **all** | | {_g(v.get('wall_time_s'), 4)} |")
+    return lines
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("design")
     parser.add_argument("-o", "--out", required=True)
     parser.add_argument("--section", required=True, help="the page's section: <!-- assess.py: NAME -->")
     parser.add_argument("--page", default=str(Path(__file__).resolve().parents[1] / "docs" / "assess.md"))
+    parser.add_argument("--no-run", action="store_true",
+                        help="write the table of the assessment already in OUT (its own wall time) instead of running it")
     args, rest = parser.parse_known_args(argv)
     from hydrojam.actuator.design import load_design
     from hydrojam.actuator.provenance import source_provenance
     from hydrojam.cli import main as hydrojam
 
-    t0 = time.perf_counter()
-    code = hydrojam(["assess", args.design, "-o", args.out, *rest])
-    wall = time.perf_counter() - t0
     out = Path(args.out)
+    if args.no_run:
+        code, data = 0, json.loads((out / "assessment.json").read_text(encoding="utf-8"))
+        wall = data.get("wall_time_s") if "replicas" in data else data["values"].get("wall_time_s")
+    else:
+        t0 = time.perf_counter()
+        code = hydrojam(["assess", args.design, "-o", args.out, *rest])
+        wall = time.perf_counter() - t0
     if not (out / "assessment.json").is_file():
         return code
     design = load_design(out / "design.toml")
@@ -112,7 +144,8 @@ def main(argv: list[str] | None = None) -> int:
     text = "\n".join([f"Measured by `{command}`: code of `{commit}`"
                       f"{' (with local changes)' if src['dirty'] is True else ''}, {os.cpu_count()} cores, "
                       f"{threads} solver thread(s) a run, mesh {design.mesh.size:g} mm ({model}), "
-                      f"friction {design.friction:g}, wall {wall:.0f} s, exit {code}.", "", *table(out, three_d)])
+                      f"friction {design.friction:g}, wall {wall:.0f} s"
+                      f"{'' if args.no_run else f', exit {code}'}.", "", *table(out, three_d), *cost_table(out)])
     page = Path(args.page)
     page.write_text(replace_section(page.read_text(encoding="utf-8"), args.section, text), encoding="utf-8")
     print(f"results table written to {page}, section {args.section}")

@@ -99,11 +99,17 @@ def test_assess_from_the_command_line_writes_the_report(tmp_path, design_file, c
     out = tmp_path / "out"
     assert main(["assess", str(design_file), "-o", str(out), "--loads", str(loads), "-q"]) == 0
     report = (out / "report.md").read_text()
-    assert "stiffness ratio" in report and "## Conclusion" in report
+    assert "stiffness ratio" in report and "## The answer" in report and "per mm of depth" in report
+    assert "## Against the authors' later numbers" in report and "| | active particles | vacuum jamming | pneumatic |" in report
     values = json.loads((out / "assessment.json").read_text())["values"]
     assert values["stiffness_ratio"] > 1.0
     assert values["swelling_pressure"] > 100 * values["contact_pressure_mean"] > 0
+    assert values["pneumatic_pressure_kPa"] > 0 and values["stiffness_active_over_pneumatic"] > 0
     assert (out / "load_deflection.png").stat().st_size > 0 and (out / "confinement.png").stat().st_size > 0
+    import meshio
+
+    vtu = meshio.read(out / "actuated.vtu")
+    assert vtu.point_data["contact_pressure"].max() == pytest.approx(values["contact_pressure_max"], rel=1e-9)
 
 
 @pytest.mark.slow

@@ -13,13 +13,21 @@ from hydrojam.actuator.design import Design
 from hydrojam.actuator.geometry import MEMBRANE, STRAIN_LIMIT_LAYER
 from hydrojam.actuator.metrics import bending_angle_3d_deg, bending_angle_deg
 from hydrojam.assess.chamber import BLOCK_STIFFNESS_PER_MODULUS, empty_chamber, empty_chamber_mesh
-from hydrojam.assess.loading import LOAD_PATH, Structure, tangent_stiffness
+from hydrojam.assess.loading import Structure, tangent_stiffness
+from hydrojam.fem.newton import NewtonOptions
+from hydrojam.fem.path import PathOptions
 from hydrojam.fem.terms import CentroidSpring, PressureTerm, ScaledTerm
 
 #: the pressure ramp's levels up to the largest pressure, before the angle is bracketed
 LEVELS = 8
 #: the angle is matched to this share of the target (or 0.1 deg, whichever is larger)
 ANGLE_TOLERANCE = 0.01
+#: the pressure ramp's load path: an empty chamber has no contact, so Newton converges in a few
+#: iterations where an equilibrium exists; past a balloon's limit point none does, and the path
+#: gives up after a short search (increments down to 1 % of a level, no enlarged last attempt)
+#: instead of spending the contact paths' budget (10 x 200 iterations) on it
+PNEUMATIC_PATH = PathOptions(ds0=0.5, ds_min=1e-2, ds_max=1.0, easy_iterations=15,
+                             newton=NewtonOptions(max_iter=60), last_resort_factor=1)
 
 
 def inflation_term(mesh, pressure: float = 1.0) -> PressureTerm:
@@ -77,44 +85,59 @@ def pressurise_to_angle(design: Design, target_deg: float, max_pressure: float, 
     x, p, angle, its = structure.X, 0.0, 0.0, 0
 
     def solve(x0, p0, p1):
-        return structure.load(x0, lambda s: [ScaledTerm(unit, p0 + s * (p1 - p0))], LOAD_PATH)
+        return structure.load(x0, lambda s: [ScaledTerm(unit, p0 + s * (p1 - p0))], PNEUMATIC_PATH)
 
     for k in range(1, levels + 1):
         p_next = max_pressure * k / levels
         res = solve(x, p, p_next)
         its += res.newton_iterations
+        # the level's end, or where its ramp stopped (its last converged state: at a balloon's
+        # limit point, the largest pressure the chamber holds)
+        p_reached = p_next if res.converged else p + res.s * (p_next - p)
+        a_reached = tip_angle(structure, res.x)
+        if abs(a_reached - target_deg) <= tol:
+            return _state(structure, unit, res.x, p_reached, a_reached, target_deg, True, "converged", its)
+        if a_reached > target_deg:
+            return _bracket(structure, unit, solve, (x, p, angle), (res.x, p_reached, a_reached), target_deg, tol,
+                            max_refinements, its)
         if not res.converged:
-            p_reached = p + res.s * (p_next - p)
-            return _state(structure, unit, x, p, angle, target_deg, False,
-                          f"the pressure ramp stopped at {1e3 * p_reached:.3g} kPa ({res.message}) with the chamber "
-                          f"bent {angle:.3g} deg, short of {target_deg:.3g} deg", its)
-        a_next = tip_angle(structure, res.x)
-        if abs(a_next - target_deg) <= tol:
-            return _state(structure, unit, res.x, p_next, a_next, target_deg, True, "converged", its)
-        if a_next > target_deg:
-            lo, hi = (x, p, angle), (res.x, p_next, a_next)
-            for _ in range(max_refinements):
-                (x_lo, p_lo, a_lo), (_, p_hi, a_hi) = lo, hi
-                p_try = p_lo + (target_deg - a_lo) / (a_hi - a_lo) * (p_hi - p_lo)
-                r = solve(x_lo, p_lo, p_try)
-                its += r.newton_iterations
-                if not r.converged:
-                    break
-                a_try = tip_angle(structure, r.x)
-                if abs(a_try - target_deg) <= tol:
-                    return _state(structure, unit, r.x, p_try, a_try, target_deg, True, "converged", its)
-                if a_try < target_deg:
-                    lo = (r.x, p_try, a_try)
-                else:
-                    hi = (r.x, p_try, a_try)
-            x_lo, p_lo, a_lo = lo
-            return _state(structure, unit, x_lo, p_lo, a_lo, target_deg, False,
-                          f"the angle was not matched to {tol:.2g} deg between {1e3 * p_lo:.3g} and "
-                          f"{1e3 * hi[1]:.3g} kPa", its)
-        x, p, angle = res.x, p_next, a_next
+            return _state(structure, unit, res.x, p_reached, a_reached, target_deg, False,
+                          f"the pressure ramp stopped at {1e3 * p_reached:.3g} kPa, the chamber bent {a_reached:.3g} deg, "
+                          f"short of {target_deg:.3g} deg: no equilibrium at a higher pressure was found (a limit "
+                          f"point: the walls balloon) ({res.message})", its)
+        x, p, angle = res.x, p_next, a_reached
     return _state(structure, unit, x, p, angle, target_deg, False,
                   f"at the largest pressure, {1e3 * max_pressure:.3g} kPa, the chamber bends {angle:.3g} deg, "
                   f"short of {target_deg:.3g} deg", its)
+
+
+def _bracket(structure, unit, solve, lo, hi, target_deg, tol, max_refinements, its) -> PneumaticState:
+    """The pressure between the states ``lo`` and ``hi`` ((x, p, angle), angles below and above
+    the target) where the angle is the target: regula falsi (Illinois: the end that stays twice
+    in a row has its weight halved, so that a strongly curved angle-pressure curve, as near a
+    limit point, still closes in), each trial a load path from the lower state."""
+    (x_lo, p_lo, a_lo), (_, p_hi, a_hi) = lo, hi
+    side = 0
+    f_lo, f_hi = a_lo - target_deg, a_hi - target_deg
+    for _ in range(max_refinements):
+        p_try = p_lo + f_lo / (f_lo - f_hi) * (p_hi - p_lo)
+        r = solve(x_lo, p_lo, p_try)
+        its += r.newton_iterations
+        if not r.converged:
+            break
+        a_try = tip_angle(structure, r.x)
+        if abs(a_try - target_deg) <= tol:
+            return _state(structure, unit, r.x, p_try, a_try, target_deg, True, "converged", its)
+        if a_try < target_deg:
+            x_lo, p_lo, f_lo = r.x, p_try, a_try - target_deg
+            f_hi = f_hi / 2 if side == -1 else f_hi
+            side = -1
+        else:
+            p_hi, f_hi = p_try, a_try - target_deg
+            f_lo = f_lo / 2 if side == 1 else f_lo
+            side = 1
+    return _state(structure, unit, x_lo, p_lo, tip_angle(structure, x_lo), target_deg, False,
+                  f"the angle was not matched to {tol:.2g} deg between {1e3 * p_lo:.3g} and {1e3 * p_hi:.3g} kPa", its)
 
 
 def _state(structure, unit, x, p, angle, target, converged, message, its) -> PneumaticState:
@@ -143,7 +166,8 @@ def pneumatic_blocked_force(design: Design, state: PneumaticState) -> tuple[floa
     spring = CentroidSpring(structure.X, structure.free_end, np.zeros(structure.dim), k, components=(0,), name="tip_stop")
     spring.target = spring.centroid(structure.X)
     unit = state.held.terms[-1].term
-    res = structure.with_terms(spring).load(structure.X, lambda s: [ScaledTerm(unit, s * state.pressure)], LOAD_PATH)
+    res = structure.with_terms(spring).load(structure.X, lambda s: [ScaledTerm(unit, s * state.pressure)],
+                                             PNEUMATIC_PATH)
     if not res.converged:
         return None, None, False
     return float(spring.reaction(res.x)[0]), float(spring.centroid(res.x)[0] - spring.target[0]), True

@@ -135,7 +135,12 @@ def answer(v: dict, design, blocked: list[dict], three_d: bool) -> list[str]:
         lines.append(f"Against vacuum: jamming the same chamber's particles (passive, not swelling) at {_f(held)} kPa "
                      f"stiffens it {rv:.2g}x: the active particles stiffen it {better} than this vacuum baseline{note}.")
     kp = v.get("stiffness_active_over_pneumatic")
-    if kp is not None:
+    if kp is not None and v.get("pneumatic_converged") is False:
+        lines.append(f"Against pneumatic: the same chamber, empty, does not bend as far under pressure: "
+                     f"{v.get('pneumatic_message')}. At the largest pressure it held ({_f(v.get('pneumatic_pressure_kPa'))} "
+                     f"kPa, {_f(v.get('pneumatic_angle_deg'))} deg) its tip stiffness is {_f(v.get('stiffness_pneumatic'))} "
+                     f"{su}: the active-particle actuator is {kp:.2g}x as stiff (the authors report up to 9x).")
+    elif kp is not None:
         lines.append(f"Against pneumatic: the same chamber, empty, bends as far ({_f(v.get('pneumatic_angle_deg'))} deg) "
                      f"at {_f(v.get('pneumatic_pressure_kPa'))} kPa, where its tip stiffness is "
                      f"{_f(v.get('stiffness_pneumatic'))} {su}: the active-particle actuator is {kp:.2g}x as stiff "
