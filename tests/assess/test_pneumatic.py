@@ -119,3 +119,39 @@ def test_balloon_follows_the_radial_solution_to_its_limit_point():
     assert p_reached == pytest.approx(p_max, rel=3e-2)
     u, _ = _radial(mesh, res.x, "inner")
     assert radial_sphere(1.0 + u / a, a, b)[0] == pytest.approx(p_reached, rel=3e-2)
+
+
+@pytest.mark.parametrize("dimension", [2, 3])
+def test_inflation_term_encloses_the_cavity(dimension):
+    """The inflation term's facets are the cavity's wall oriented out of the walls, so the volume
+    it encloses is minus the cavity's (2D: w x l; 3D half model: w x D/2 x l, the rim on y = 0
+    closing it through the origin) and a positive pressure, E = p V, inflates."""
+    from hydrojam import Design
+    from hydrojam.assess.chamber import empty_chamber_mesh
+    from hydrojam.assess.pneumatic import inflation_term
+
+    d = Design(dimension=dimension, particle_layers=1, mesh={"size": 4.0}).resolved()
+    mesh = empty_chamber_mesh(d)
+    cavity = d.resolved_cavity_width * d.resolved_cavity_length * (d.resolved_cavity_depth / 2 if dimension == 3 else 1.0)
+    assert inflation_term(mesh).volume(mesh.points) == pytest.approx(-cavity, rel=1e-9)
+
+
+@pytest.mark.slow
+def test_pneumatic_chamber_is_pressurised_to_the_target_angle():
+    """The one-layer 2D chamber, empty (mesh 4 mm), pressurised to 35 deg: the pressure found
+    bends it to the target within the tolerance (1 %), below the chamber's balloon limit
+    (the ramp to 100 kPa stops near 6 kPa); the held pressure stiffens the tip over the empty
+    chamber's; the blocked chamber pushes on the stop in +x (it bends toward -x)."""
+    from hydrojam import Design
+    from hydrojam.assess.loading import tangent_stiffness
+    from hydrojam.assess.pneumatic import (ANGLE_TOLERANCE, pneumatic_blocked_force, pneumatic_stiffness,
+                                           pressurise_to_angle, tip_angle)
+
+    d = Design(particle_layers=1, mesh={"size": 4.0})
+    pn = pressurise_to_angle(d, 35.0, 0.1)
+    assert pn.converged, pn.message
+    assert tip_angle(pn.structure, pn.x) == pytest.approx(35.0, rel=ANGLE_TOLERANCE)
+    assert 0 < pn.pressure < 0.01
+    assert pneumatic_stiffness(pn) > tangent_stiffness(pn.structure, pn.structure.X)
+    force, give, ok = pneumatic_blocked_force(d, pn)
+    assert ok and force > 0 and abs(give) < 0.1
