@@ -206,3 +206,30 @@ def test_the_answer_and_the_trend_are_worded_from_the_numbers():
     stats["blocked_force_295K"] = spread([5.0, 7.0, 4.5, 6.5])
     assert "within the spread" in blocked_trend(stats, [275.0, 295.0])
     assert blocked_trend(stats, [275.0]) is None
+
+
+@pytest.mark.slow
+def test_replicas_of_an_assessment_give_every_figure_with_its_spread(tmp_path, design_file, capsys):
+    """`hydrojam assess --replicas 2` (stiffness part only): each replica's report in its point
+    folder, the replicas' report with mean ± std, assessment.json with every value's spread over
+    both; a rerun loads the points from the cache; other loads in the same folder are refused."""
+    loads = tmp_path / "loads.toml"
+    loads.write_text("blocking = false\nvacuum = false\npneumatic = false\n")
+    out = tmp_path / "out"
+    args = ["assess", str(design_file), "-o", str(out), "--loads", str(loads), "--replicas", "2", "--workers", "1", "-q"]
+    assert main(args) == 0
+    data = json.loads((out / "assessment.json").read_text())
+    ratio = data["values"]["stiffness_ratio"]
+    assert ratio["n"] == 2 and ratio["std"] is not None and ratio["min"] <= ratio["mean"] <= ratio["max"]
+    assert len(list((out / "points").glob("*/report.md"))) == 2
+    assert "± " in (out / "report.md").read_text()
+    assert main(args) == 0  # cached
+    assert _refused_in(out, ["assess", str(design_file), "-o", str(out), "--vacuum-kpa", "50", "--replicas", "2", "-q"],
+                       capsys)
+
+
+def _refused_in(out, args, capsys) -> bool:
+    before = sorted(p.name for p in out.iterdir())
+    code = main(args)
+    err = capsys.readouterr().err
+    return code == 2 and "holds replicas assessed under other loads" in err and sorted(p.name for p in out.iterdir()) == before
