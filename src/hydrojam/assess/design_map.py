@@ -25,10 +25,10 @@ MAP_VALUES = ("bending_angle_deg", "stiffness_ratio", "contact_pressure_mean", "
 
 
 def map_point(design: Design, point_dir: Path) -> dict:
-    """One point of the map: the design's assessment without blocked force and vacuum; its values
+    """One point of the map: the design's assessment without blocked force and baselines; its values
     (:data:`MAP_VALUES`; ``confinement_share`` = mean contact pressure / confined swelling
     pressure) also written to ``point_dir``/assessment.json."""
-    a = assess(design, Loads(blocking=False, vacuum=False))
+    a = assess(design, Loads(blocking=False, vacuum=False, pneumatic=False))
     v = a.values
     values = {k: v[k] for k in ("bending_angle_deg", "stiffness_ratio", "contact_pressure_mean",
                                 "contact_pressure_max", "swelling_pressure")}
