@@ -1,6 +1,6 @@
 """The design map (docs/assess.md): bending angle, stiffness ratio and confinement over
 the membrane's wall thickness and shear modulus, run as a study sweep (:mod:`hydrojam.study`:
-parallel, cached, resumable), one assessment without blocked force and vacuum per point."""
+parallel, cached, resumable), one assessment without blocked force and baselines per point."""
 
 from __future__ import annotations
 
