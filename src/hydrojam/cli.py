@@ -838,9 +838,17 @@ def _assess_replicas(design, loads, out: Path, replicas: int, workers, scheduler
             console.print(f"hydrojam assess: replica {done}/{total} {outcome.status}"
                           f"{'' if not outcome.error else ': ' + outcome.error}", soft_wrap=True)
 
+    from hydrojam.actuator.design import DesignError
+    from hydrojam.study.sweep import SchedulerError
+
     if not quiet:
         console.print(f"hydrojam assess: {replicas} replicas in parallel...")
-    result = assess_replicas(design, loads, out, replicas, workers=workers, scheduler=scheduler, on_point=on_point)
+    try:
+        result = assess_replicas(design, loads, out, replicas, workers=workers, scheduler=scheduler, on_point=on_point)
+    except SchedulerError as err:
+        raise InputError(f"--scheduler: {err}") from None
+    except DesignError as err:  # a folder of another kind, or held by a live run: before any work
+        raise InputError(str(err)) from None
     report = write_replica_report(result, out)
     if not quiet:
         console.print(f"report: {report}", soft_wrap=True)
