@@ -27,7 +27,7 @@ ANGLE_TOLERANCE = 0.01
 #: gives up after a short search (increments down to 1 % of a level, no enlarged last attempt)
 #: instead of spending the contact paths' budget (10 x 200 iterations) on it
 PNEUMATIC_PATH = PathOptions(ds0=0.5, ds_min=1e-2, ds_max=1.0, easy_iterations=15,
-                             newton=NewtonOptions(max_iter=60), last_resort_factor=1)
+                             newton=NewtonOptions(max_iter=25), last_resort_factor=1)
 
 
 def inflation_term(mesh, pressure: float = 1.0) -> PressureTerm:
