@@ -511,6 +511,8 @@ def _quick_inputs(tmp_path) -> tuple[Path, Path]:
     ("run --replicas 2", "run", "a single run"),
     ("assess", "run", "a single run"),
     ("assess", "study", "a study"),
+    ("assess --replicas 2", "run", "a single run"),
+    ("assess --replicas 2", "assessment", "an assessment"),
     ("sweep", "run", "a single run"),
     ("sweep", "assessment", "an assessment"),
     ("design-map", "run", "a single run"),
@@ -535,7 +537,7 @@ def test_a_folder_of_another_kind_of_output_is_refused(tmp_path, capsys, command
     assert (_listing(folder), (folder / "design.toml").read_text()) == before
 
 
-@pytest.mark.parametrize("command", ["run", "assess", "sweep", "design-map", "run --replicas 2"])
+@pytest.mark.parametrize("command", ["run", "assess", "sweep", "design-map", "run --replicas 2", "assess --replicas 2"])
 def test_a_folder_a_live_run_holds_is_refused_by_every_command(tmp_path, capsys, command):
     """The same lock file for every command that writes a folder: one held by a live process
     (this one) is refused before anything is written."""

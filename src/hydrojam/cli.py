@@ -856,17 +856,38 @@ def assess_design(
     design_file: Path = typer.Argument(..., help="Design file (TOML), e.g. from `hydrojam init`."),
     out: Path = typer.Option(..., "-o", "--out", help="Output folder: report.md, assessment.json, design.toml, *.png."),
     loads_file: Optional[Path] = typer.Option(None, "--loads", help="Loads file (TOML; keys in docs/assess.md); the options below override it."),
-    max_force: Optional[float] = typer.Option(None, "--max-force", help="Largest tip force of the curves [N/mm per mm of depth], > 0."),
+    max_force: Optional[float] = typer.Option(None, "--max-force", help="Largest tip force of the curves, > 0 [N/mm per mm of depth in 2D; N of the whole actuator in 3D]."),
     vacuum_kpa: Optional[float] = typer.Option(None, "--vacuum-kpa", help="Vacuum baseline's pressure difference in kPa, in (0, 101.325]."),
+    pneumatic_angle: Optional[float] = typer.Option(None, "--pneumatic-angle", help="Bending angle the pneumatic baseline is pressurised to [deg], in (0, 360]; default: the actuator's own."),
+    pneumatic_max_kpa: Optional[float] = typer.Option(None, "--pneumatic-max-kpa", help="Largest inner pressure of the pneumatic baseline in kPa, in (0, 1000]."),
+    replicas: Optional[int] = typer.Option(None, "--replicas", help="Assess N replicas in parallel (jittered particle centres) and give every figure with its spread."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="With replicas: local worker processes, one thread each (default: one per CPU)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="With replicas: address of a running dask scheduler."),
     temperatures: Optional[str] = typer.Option(None, "--temperatures", help="Blocked-force temperatures [K], comma-separated, e.g. 275,285,295."),
     overrides: list[str] = typer.Option([], "--set", help="Change a design field, e.g. --set particle_layers=1 (repeatable)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress messages."),
 ) -> None:
     """Assess a design as a jamming actuator: bending, stiffness ratio (actuated / unactuated),
-    blocked force against temperature, the vacuum-jamming baseline and the confinement; writes
-    OUT/report.md with its figures. Exit status 0 when every part converged, 1 when one stopped
-    early (the report says which), 2 on bad input. See docs/assess.md."""
+    blocked force against temperature, the vacuum-jamming and pneumatic baselines and the
+    confinement, in 2D (per mm of depth) or 3D (N and N/mm of the whole actuator); writes
+    OUT/report.md with its figures. With --replicas N > 1 the replicas run in parallel (OUT/points/
+    holds each one's report) and every figure comes with its spread. Exit status 0 when every part
+    converged, 1 when one stopped early (the report says which), 2 on bad input. See docs/assess.md."""
     from hydrojam.assess.spec import AssessError, load_loads, loads_from_dict
+
+    replicas = _check_replicas(replicas)
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers: must be >= 1 (got {workers})")
+    if (workers is not None or scheduler is not None) and not (replicas or 1) > 1:
+        raise InputError(f"{'--workers' if workers is not None else '--scheduler'}: only with --replicas N > 1 "
+                         f"(got {'--replicas ' + str(replicas) if replicas is not None else 'no --replicas'})")
+    if scheduler is not None:
+        from hydrojam.study.sweep import SchedulerError, _check_address
+
+        try:
+            _check_address(scheduler)
+        except (SchedulerError, ValueError) as err:
+            raise InputError(f"--scheduler: {err}") from None
 
     if not design_file.is_file():
         raise InputError(f"{design_file}: no such design file")
@@ -875,7 +896,8 @@ def assess_design(
         data = {} if loads_file is None else load_loads(loads_file).model_dump(exclude_unset=True)
     except AssessError as err:
         raise InputError(str(err)) from None
-    options = {"max_force": max_force, "vacuum_pressure": vacuum_kpa}
+    options = {"max_force": max_force, "vacuum_pressure": vacuum_kpa, "pneumatic_angle": pneumatic_angle,
+               "pneumatic_max_pressure": pneumatic_max_kpa}
     for key, value in options.items():
         if value is not None:
             data[key] = value
@@ -884,7 +906,8 @@ def assess_design(
             data["temperatures"] = tuple(float(t) for t in temperatures.split(","))
         except ValueError:
             raise InputError(f"--temperatures: expected comma-separated numbers [K], e.g. 275,285,295 (got {temperatures!r})") from None
-    names = {"max_force": "--max-force", "vacuum_pressure": "--vacuum-kpa", "temperatures": "--temperatures"}
+    names = {"max_force": "--max-force", "vacuum_pressure": "--vacuum-kpa", "temperatures": "--temperatures",
+             "pneumatic_angle": "--pneumatic-angle", "pneumatic_max_pressure": "--pneumatic-max-kpa"}
     try:
         loads = loads_from_dict(data, names)
     except AssessError as err:
@@ -901,6 +924,9 @@ def assess_design(
     from hydrojam.assess.report import write_report
 
     console = Console(stderr=True)
+    if replicas is not None and replicas > 1:
+        _assess_replicas(design, loads, out, replicas, workers, scheduler, quiet, console)
+        return
     with _output_folder(out, FolderKind.ASSESSMENT):
         result = assess(design, loads, on_progress=None if quiet else lambda m: console.print(f"hydrojam assess: {m}..."))
         report = write_report(result, out)
@@ -913,6 +939,44 @@ def assess_design(
                if not ok]
     if stopped:
         console.print(f"[red]hydrojam: stopped early: {', '.join(stopped)} (see {report})[/red]", soft_wrap=True)
+        raise typer.Exit(code=1)
+
+
+def _assess_replicas(design, loads, out: Path, replicas: int, workers, scheduler, quiet: bool, console) -> None:
+    """`hydrojam assess --replicas N`: the replicas' assessments in parallel, the report with every
+    figure's spread; exit status 1 when a replica failed or a part of one stopped early."""
+    from hydrojam.assess.replicas import assess_replicas, check_replica_folder
+    from hydrojam.assess.report import write_replica_report
+    from hydrojam.assess.spec import AssessError
+
+    try:
+        check_replica_folder(out, loads)
+    except AssessError as err:
+        raise InputError(str(err)) from None
+
+    def on_point(outcome, done, total):
+        if not quiet:
+            console.print(f"hydrojam assess: replica {done}/{total} {outcome.status}"
+                          f"{'' if not outcome.error else ': ' + outcome.error}", soft_wrap=True)
+
+    from hydrojam.actuator.design import DesignError
+    from hydrojam.study.sweep import SchedulerError
+
+    if not quiet:
+        console.print(f"hydrojam assess: {replicas} replicas in parallel...")
+    try:
+        result = assess_replicas(design, loads, out, replicas, workers=workers, scheduler=scheduler, on_point=on_point)
+    except SchedulerError as err:
+        raise InputError(f"--scheduler: {err}") from None
+    except DesignError as err:  # a folder of another kind, or held by a live run: before any work
+        raise InputError(str(err)) from None
+    report = write_replica_report(result, out)
+    if not quiet:
+        console.print(f"report: {report}", soft_wrap=True)
+    bad = [run for run in result.runs if run.get("status") != "ok"]
+    if bad:
+        console.print(f"[red]hydrojam: {len(bad)} of {len(result.runs)} replicas failed or stopped early "
+                      f"(see {report})[/red]", soft_wrap=True)
         raise typer.Exit(code=1)
 
 

@@ -35,6 +35,16 @@ def _refused(command, design_file, tmp_path, capsys, *args) -> str:
     (["--vacuum-kpa", "150"], "--vacuum-kpa: must be <= 101.325; allowed range (0, 101.325] kPa"),
     (["--temperatures", "250,275"], "--temperatures: each temperature must be in liquid water's range"),
     (["--temperatures", "cold"], "--temperatures: expected comma-separated numbers"),
+    (["--pneumatic-angle", "400"], "--pneumatic-angle: must be <= 360"),
+    (["--pneumatic-angle", "-5"], "--pneumatic-angle: must be > 0"),
+    (["--pneumatic-max-kpa", "0"], "--pneumatic-max-kpa: must be > 0"),
+    (["--pneumatic-max-kpa", "5000"], "--pneumatic-max-kpa: must be <= 1000"),
+    (["--pneumatic-max-kpa", "inf"], "--pneumatic-max-kpa: must be a finite number"),
+    (["--replicas", "0"], "--replicas: must be in [1, "),
+    (["--replicas", "2", "--workers", "0"], "--workers: must be >= 1"),
+    (["--workers", "2"], "--workers: only with --replicas N > 1"),
+    (["--replicas", "2", "--scheduler", "nope://x"], "--scheduler:"),
+    (["--set", "dimension=3", "--pneumatic-angle", "0"], "--pneumatic-angle: must be > 0"),
 ])
 def test_bad_loads_are_refused_before_any_work(tmp_path, design_file, capsys, args, words):
     err = _refused("assess", design_file, tmp_path, capsys, *args)
@@ -89,14 +99,20 @@ def test_assess_from_the_command_line_writes_the_report(tmp_path, design_file, c
     out = tmp_path / "out"
     assert main(["assess", str(design_file), "-o", str(out), "--loads", str(loads), "-q"]) == 0
     report = (out / "report.md").read_text()
-    assert "stiffness ratio" in report and "## Conclusion" in report
+    assert "stiffness ratio" in report and "## The answer" in report and "per mm of depth" in report
+    assert "## Against the authors' later numbers" in report and "| | active particles | vacuum jamming | pneumatic |" in report
     values = json.loads((out / "assessment.json").read_text())["values"]
     assert values["stiffness_ratio"] > 1.0
     assert values["swelling_pressure"] > 100 * values["contact_pressure_mean"] > 0
+    assert values["pneumatic_pressure_kPa"] > 0 and values["stiffness_active_over_pneumatic"] > 0
     assert (out / "load_deflection.png").stat().st_size > 0 and (out / "confinement.png").stat().st_size > 0
     page = (out / "report.html").read_text()  # the same report in one file: its figures inlined
     assert "<h2>Conclusion</h2>" in page and "<table>" in page
     assert page.count('src="data:image/png;base64,') == 2 and 'src="load_deflection.png"' not in page
+    import meshio
+
+    vtu = meshio.read(out / "actuated.vtu")
+    assert vtu.point_data["contact_pressure"].max() == pytest.approx(values["contact_pressure_max"], rel=1e-9)
 
 
 @pytest.mark.slow
@@ -106,7 +122,7 @@ def test_full_assessment_of_a_one_layer_actuator(tmp_path):
     whether the wall holds the gel."""
     a = assess(QUICK, Loads(temperatures=(275.0, 295.0)))
     v = a.values
-    assert a.blocked[0]["force_x_N_per_mm"] > a.blocked[1]["force_x_N_per_mm"] > 0
+    assert a.blocked[0]["force_x"] > a.blocked[1]["force_x"] > 0
     assert v["stiffness_ratio_vacuum"] > 1.0 and v["vacuum_pressure_kPa"] > 0
     text = " ".join(conclusion(a))
     assert "9x-30x" in text and "does not hold the gel" in text
@@ -157,24 +173,66 @@ def test_design_map_study_validates_every_pair():
     assert len(map_study(QUICK, [1.0, 2.0], [0.023]).points()) == 2
 
 
-@pytest.mark.parametrize("command", ["assess", "design-map"])
-def test_a_3d_design_is_refused_before_any_work(tmp_path, design_file, capsys, command, monkeypatch):
-    """The assessment is built for 2D (the empty chamber, the vacuum load, the membrane's contact
-    pressure): a 3D design is refused before meshing, not after its actuation (it used to end in
-    a traceback from the 2D contact pressure after the 3D actuation had run), from Python too."""
-    import hydrojam.assess.assessment as assessment_module
-    from hydrojam.actuator.design import DesignError
-    from hydrojam.assess.design_map import design_map
+def test_a_3d_design_is_assessable_and_a_replica_folder_keeps_its_loads(tmp_path):
+    """A 3D design (half model or whole) passes the assessment's checks; a replicas' folder
+    assessed under other loads is refused, naming --out, before anything runs or is written."""
+    from hydrojam.assess.assessment import check_assessable
+    from hydrojam.assess.replicas import LOADS_FILE, check_replica_folder
 
-    def no_work(*args, **kwargs):
-        raise AssertionError("a model was built")
+    check_assessable(Design(dimension=3, particle_layers=1, mesh={"size": 4.0}))
+    check_assessable(Design(dimension=3, particle_layers=1, mesh={"size": 4.0, "symmetry": False}))
+    check_replica_folder(tmp_path, Loads())  # nothing there yet
+    (tmp_path / LOADS_FILE).write_text(Loads().model_dump_json())
+    check_replica_folder(tmp_path, Loads())
+    with pytest.raises(AssessError, match="--out: .* holds replicas assessed under other loads"):
+        check_replica_folder(tmp_path, Loads(vacuum_pressure=50.0))
 
-    monkeypatch.setattr(assessment_module, "build_model", no_work)
-    err = _refused(command, design_file, tmp_path, capsys, "--set", "dimension=3")
-    assert "dimension: allowed for an assessment: 2 (got 3)" in err and len(err.strip().splitlines()) == 1
-    three = Design(dimension=3, particle_layers=1, mesh={"size": 4.0})
-    with pytest.raises(DesignError, match="dimension: allowed for an assessment: 2"):
-        assess(three)
-    with pytest.raises(DesignError, match="dimension: allowed for an assessment: 2"):
-        design_map(three, [2.0], [0.023], tmp_path / "map")
-    assert not (tmp_path / "map").exists()
+
+def test_the_answer_and_the_trend_are_worded_from_the_numbers():
+    """The answer names the units of its dimension, the pneumatic comparison and the designer's
+    levers; the blocked force's change over T is a trend only beyond 2 standard errors of the
+    difference of the means."""
+    from hydrojam.assess.report import answer, authors_table, blocked_trend
+    from hydrojam.study.spread import spread
+
+    v = {"stiffness_ratio": 12.0, "stiffness_unactuated": 0.01, "stiffness_actuated": 0.12,
+         "stiffness_active_over_pneumatic": 3.0, "pneumatic_angle_deg": 35.0, "pneumatic_pressure_kPa": 20.0,
+         "stiffness_pneumatic": 0.04, "swelling_pressure": 7.0, "contact_pressure_mean": 0.005,
+         "contact_pressure_max": 0.02, "mean_swelling_ratio": 6.0, "bending_angle_deg": 35.0}
+    text = " ".join(answer(v, QUICK, [{"temperature_K": 275.0, "force_x": 0.25}], True))
+    assert "within the 9x-30x" in text and "0.12 N/mm" in text and "3x as stiff" in text
+    assert "0.25 N at 275 K" in text and "smaller beads for speed" in text and "membrane for confinement" in text
+    assert "82 mN/mm" in " ".join(answer(v, QUICK, [{"temperature_K": 275.0, "force_x": 0.082}], False))
+    assert any("| 3x |" in row for row in authors_table(v))
+    stats = {"blocked_force_275K": spread([5.0, 5.5, 6.0, 5.5]), "blocked_force_295K": spread([9.0, 10.0, 9.5, 9.5])}
+    assert "beyond the spread: a trend" in blocked_trend(stats, [275.0, 295.0])
+    stats["blocked_force_295K"] = spread([5.0, 7.0, 4.5, 6.5])
+    assert "within the spread" in blocked_trend(stats, [275.0, 295.0])
+    assert blocked_trend(stats, [275.0]) is None
+
+
+@pytest.mark.slow
+def test_replicas_of_an_assessment_give_every_figure_with_its_spread(tmp_path, design_file, capsys):
+    """`hydrojam assess --replicas 2` (stiffness part only): each replica's report in its point
+    folder, the replicas' report with mean ± std, assessment.json with every value's spread over
+    both; a rerun loads the points from the cache; other loads in the same folder are refused."""
+    loads = tmp_path / "loads.toml"
+    loads.write_text("blocking = false\nvacuum = false\npneumatic = false\n")
+    out = tmp_path / "out"
+    args = ["assess", str(design_file), "-o", str(out), "--loads", str(loads), "--replicas", "2", "--workers", "1", "-q"]
+    assert main(args) == 0
+    data = json.loads((out / "assessment.json").read_text())
+    ratio = data["values"]["stiffness_ratio"]
+    assert ratio["n"] == 2 and ratio["std"] is not None and ratio["min"] <= ratio["mean"] <= ratio["max"]
+    assert len(list((out / "points").glob("*/report.md"))) == 2
+    assert "± " in (out / "report.md").read_text()
+    assert main(args) == 0  # cached
+    assert _refused_in(out, ["assess", str(design_file), "-o", str(out), "--vacuum-kpa", "50", "--replicas", "2", "-q"],
+                       capsys)
+
+
+def _refused_in(out, args, capsys) -> bool:
+    before = sorted(p.name for p in out.iterdir())
+    code = main(args)
+    err = capsys.readouterr().err
+    return code == 2 and "holds replicas assessed under other loads" in err and sorted(p.name for p in out.iterdir()) == before

@@ -1,12 +1,14 @@
-"""Assessing an actuator as a jamming actuator: stiffness, blocked force, confinement and the
-vacuum-jamming baseline. ``assess(design, loads)`` gives the numbers,
-``write_report`` the report; the pieces live in loading, chamber, confinement and design_map."""
+"""Assessing an actuator as a jamming actuator (2D or 3D): stiffness, blocked force, confinement
+and the vacuum-jamming and pneumatic baselines. ``assess(design, loads)`` gives the numbers,
+``write_report`` the report, ``assess_replicas`` the spread over a design's replicas; the pieces
+live in loading, chamber, pneumatic, confinement, replicas and design_map."""
 
 from hydrojam._lazy import lazy_api
 
 _PUBLIC = {
     "hydrojam.assess.assessment": ["Assessment", "assess", "check_assessable"],
     "hydrojam.assess.report": ["write_report"],
+    "hydrojam.assess.replicas": ["assess_replicas"],
     "hydrojam.assess.spec": ["AssessError", "Loads", "load_loads", "loads_from_dict"],
     "hydrojam.assess.design_map": ["design_map", "map_study", "MAP_VALUES", "MODULUS", "THICKNESS"],
 }

@@ -1,6 +1,7 @@
 """The actuator as a loaded structure (docs/assess.md): its terms at a stimulus (or with
 other particles), the empty chamber, the membrane's outer surface for a vacuum, and the blocked
-actuation. Units: mm, MPa, N/mm (2D, per unit depth)."""
+actuation. Units: mm, MPa; forces N/mm per unit depth in 2D, N in 3D (of the model: the half
+model's are half the whole actuator's)."""
 
 from __future__ import annotations
 
@@ -22,21 +23,37 @@ from hydrojam.fem.terms import CentroidSpring, PressureTerm, ScaledTerm, Viscous
 from hydrojam.materials.energies import Material
 
 #: stiffness of the spring that blocks the tip, times the membrane's shear modulus [N/mm per mm
-#: of depth per MPa]: 100 G = 2.3 N/mm/mm for Ecoflex 00-30, above 1e3 x the actuators'
-#: bending stiffness (docs/assess.md), so the blocked tip stays within F/k of its place
+#: of depth per MPa; in 3D times the particle diameter too, N/mm per MPa mm]: 100 G = 2.3
+#: N/mm/mm for Ecoflex 00-30, above 1e3 x the actuators' bending stiffness (docs/assess.md), so
+#: the blocked tip stays within F/k of its place
 BLOCK_STIFFNESS_PER_MODULUS = 100.0
 
 
+def clamp_conditions(nodes_clamped: np.ndarray, dim: int, symmetry_nodes: np.ndarray | None = None) -> tuple:
+    """The Dirichlet conditions of a clamped chamber: the clamped nodes held in every component
+    and, in a 3D half model, the other nodes on the symmetry plane y = 0 held in y."""
+    bcs = [fixed(nodes_clamped, dim)]
+    if symmetry_nodes is not None:
+        bcs.append(fixed(np.setdiff1d(symmetry_nodes, nodes_clamped), dim, [1]))
+    return tuple(bcs)
+
+
+def force_scale(shear_modulus: float, diameter: float, dim: int) -> float:
+    """The residual floor's force scale [N/mm in 2D, N in 3D]: G d^(dim - 1)."""
+    return shear_modulus * diameter ** (dim - 1)
+
+
 def self_contact(model: ActuatorModel, walls_meet: bool = True) -> Contact:
-    """The 2D model's contact with the walls' full self-contact (IPC's: any two wall segments
+    """The model's contact with the walls' full self-contact (IPC's: any two wall segments
     that share no node), so the membrane folding into the voids between particles meets itself
     at a barrier like any other contact; or, with ``walls_meet`` False, with none (the walls
     pass through each other). The model's own contact lets only walls of different bands along
     the axis touch (a chamber curling onto itself), which a vacuum's folds are not. Same barrier
-    settings as the model's. The particles' forces on the walls are the particle-wall pairs'
+    settings and collision surfaces as the model's (in 3D: the cavity, the particles and the
+    walls' outer faces). The particles' forces on the walls are the particle-wall pairs'
     alone either way (the barrier is a sum over pairs)."""
     regions = np.arange(model.mesh.n_nodes) if walls_meet else None
-    return Contact(model.mesh.points, model.mesh.boundary_facets(), model.components, model.contact.settings,
+    return Contact(model.mesh.points, model.contact.facets, model.components, model.contact.settings,
                    regions=regions)
 
 
@@ -51,25 +68,39 @@ def actuator_structure(model: ActuatorModel, s: float = 1.0, particles: Material
     if particles is not None:
         materials[PARTICLES] = particles
     terms = (model.solid.with_materials(materials), (model.contact if contact is None else contact).fresh())
-    return Structure(model.mesh.points, terms, (fixed(model.clamp_nodes, 2),),
-                     model.mesh.facet_groups["free_end"], model.membrane.shear_modulus_ref * model.design.particle_diameter)
+    dim = model.mesh.dim
+    return Structure(model.mesh.points, terms, clamp_conditions(model.clamp_nodes, dim, model.symmetry_nodes),
+                     model.mesh.facet_groups["free_end"],
+                     force_scale(model.membrane.shear_modulus_ref, model.design.particle_diameter, dim))
 
 
-def empty_chamber(design: Design) -> Structure:
-    """The design's membrane and strain-limit layer without particles (an empty chamber), meshed
-    by the actuator's own geometry code: a structure for tip loads (no contact: the cavity's
-    walls do not meet under small loads)."""
-    from hydrojam.actuator.geometry import actuator_2d
+def empty_chamber_mesh(design: Design):
+    """The design's membrane and strain-limit layer without particles, meshed by the actuator's
+    own geometry code (2D, or 3D: the half model unless ``mesh.symmetry`` is false)."""
+    from hydrojam.actuator.geometry import actuator_2d, actuator_3d
 
     d = design.resolved()
-    mesh = actuator_2d(d.resolved_cavity_width, d.resolved_cavity_length, d.side_wall_thickness, d.end_wall_thickness,
+    if d.dimension == 3:
+        return actuator_3d(d.resolved_cavity_width, d.resolved_cavity_depth, d.resolved_cavity_length,
+                           d.side_wall_thickness, d.end_wall_thickness, d.strain_limit_thickness, np.zeros((0, 3)),
+                           d.particle_diameter / 2, d.mesh.size, symmetry=d.mesh.symmetry, order=2)
+    return actuator_2d(d.resolved_cavity_width, d.resolved_cavity_length, d.side_wall_thickness, d.end_wall_thickness,
                        d.strain_limit_thickness, np.zeros((0, 2)), d.particle_diameter / 2, d.mesh.size, order=2)
+
+
+def empty_chamber(design: Design, mesh=None) -> Structure:
+    """The design's membrane and strain-limit layer without particles (an empty chamber,
+    :func:`empty_chamber_mesh` unless ``mesh`` is given): a structure for tip loads (no contact:
+    the cavity's walls do not meet under small loads or under an inner pressure)."""
+    d = design.resolved()
+    mesh = empty_chamber_mesh(d) if mesh is None else mesh
     el = element_for_meshio_type(mesh.cell_type)
     membrane, sll = d.membrane.material(), d.strain_limit_layer.material()
     solid = Solid(mesh.points, [Block(mesh.cells[mesh.cell_groups[MEMBRANE]], el, membrane, MEMBRANE),
                                 Block(mesh.cells[mesh.cell_groups[STRAIN_LIMIT_LAYER]], el, sll, STRAIN_LIMIT_LAYER)])
-    return Structure(mesh.points, (solid,), (fixed(mesh.group_nodes("clamp"), 2),), mesh.facet_groups["free_end"],
-                     membrane.shear_modulus_ref * d.particle_diameter)
+    sym = mesh.group_nodes("symmetry") if "symmetry" in mesh.facet_groups else None
+    return Structure(mesh.points, (solid,), clamp_conditions(mesh.group_nodes("clamp"), mesh.dim, sym),
+                     mesh.facet_groups["free_end"], force_scale(membrane.shear_modulus_ref, d.particle_diameter, mesh.dim))
 
 
 def outer_facets(model: ActuatorModel) -> np.ndarray:
@@ -91,10 +122,11 @@ def vacuum_term(model: ActuatorModel, pressure: float) -> PressureTerm:
 def blocking_spring(model: ActuatorModel) -> CentroidSpring:
     """A stiff spring that holds the free-end face's mean x position where it was as prepared
     (z free: a frictionless stop in front of the tip), stiffness
-    :data:`BLOCK_STIFFNESS_PER_MODULUS` x G_membrane."""
+    :data:`BLOCK_STIFFNESS_PER_MODULUS` x G_membrane (x the particle diameter in 3D)."""
     X = model.mesh.points
-    spring = CentroidSpring(X, model.mesh.facet_groups["free_end"], np.zeros(2),
-                            BLOCK_STIFFNESS_PER_MODULUS * model.membrane.shear_modulus_ref, components=(0,),
+    dim = model.mesh.dim
+    k = BLOCK_STIFFNESS_PER_MODULUS * model.membrane.shear_modulus_ref * model.design.particle_diameter ** (dim - 2)
+    spring = CentroidSpring(X, model.mesh.facet_groups["free_end"], np.zeros(dim), k, components=(0,),
                             name="tip_stop")
     spring.target = spring.centroid(X)
     return spring
@@ -102,8 +134,8 @@ def blocking_spring(model: ActuatorModel) -> CentroidSpring:
 
 def blocked_actuation(model: ActuatorModel, on_progress=None) -> tuple[SimulationResult, np.ndarray, float]:
     """Actuate with the tip held in x where it was as prepared (:func:`blocking_spring`): the
-    blocked force. Returns (the simulation, the force the stop exerts on the tip (2,) [N/mm per
-    unit depth], the stop's give: the tip's remaining x displacement [mm])."""
+    blocked force. Returns (the simulation, the force the stop exerts on the tip (d,) [N/mm per
+    unit depth in 2D; N on the model in 3D], the stop's give: the tip's remaining x displacement [mm])."""
     spring = blocking_spring(model)
     result = simulate(model, on_progress=on_progress, extra_terms=(spring,))
     x = result.final.x
@@ -155,7 +187,8 @@ def vacuum_jamming(model: ActuatorModel, pressure: float, particles: Material | 
     base = actuator_structure(model, 0.0, particles, self_contact(model, walls_meet))
     mesh = model.mesh
     w = lumped_volumes(mesh.points, mesh.cells, mesh.cell_volumes())
-    stab = ViscousStabilisation(w, stabilisation * model.membrane.shear_modulus_ref / model.design.particle_diameter, 2)
+    stab = ViscousStabilisation(w, stabilisation * model.membrane.shear_modulus_ref / model.design.particle_diameter,
+                                mesh.dim)
     vac = vacuum_term(model, pressure)
     res = base.load(mesh.points, lambda s: [ScaledTerm(vac, s), stab], options)
     its = res.newton_iterations

@@ -1,6 +1,6 @@
 """The design map (docs/assess.md): bending angle, stiffness ratio and confinement over
 the membrane's wall thickness and shear modulus, run as a study sweep (:mod:`hydrojam.study`:
-parallel, cached, resumable), one assessment without blocked force and vacuum per point."""
+parallel, cached, resumable), one assessment without blocked force and baselines per point."""
 
 from __future__ import annotations
 
@@ -25,10 +25,10 @@ MAP_VALUES = ("bending_angle_deg", "stiffness_ratio", "contact_pressure_mean", "
 
 
 def map_point(design: Design, point_dir: Path) -> dict:
-    """One point of the map: the design's assessment without blocked force and vacuum; its values
+    """One point of the map: the design's assessment without blocked force and baselines; its values
     (:data:`MAP_VALUES`; ``confinement_share`` = mean contact pressure / confined swelling
     pressure) also written to ``point_dir``/assessment.json."""
-    a = assess(design, Loads(blocking=False, vacuum=False))
+    a = assess(design, Loads(blocking=False, vacuum=False, pneumatic=False))
     v = a.values
     values = {k: v[k] for k in ("bending_angle_deg", "stiffness_ratio", "contact_pressure_mean",
                                 "contact_pressure_max", "swelling_pressure")}

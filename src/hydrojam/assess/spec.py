@@ -1,6 +1,6 @@
 """The loads of an assessment (``hydrojam assess --loads LOADS.toml``): validated before any work,
-one line naming the field and its allowed range (docs/assess.md). Units: N/mm (2D, per unit
-depth), kPa, K."""
+one line naming the field and its allowed range (docs/assess.md). Units: forces N/mm (2D, per
+unit depth) or N (3D, the whole actuator), kPa, K, deg."""
 
 from __future__ import annotations
 
@@ -14,9 +14,12 @@ from hydrojam.actuator.design import WATER_RANGE_K, DesignError, ElastomerSpec
 
 #: a vacuum cannot pull harder than the atmosphere it works against [kPa]
 ATMOSPHERE_KPA = 101.325
-#: largest tip force [N/mm per unit depth]: 10 N per mm of depth is over 1000x the bending
-#: stiffness of a 2D Ecoflex actuator times its length; anything larger is a unit mistake
+#: largest tip force [N/mm per unit depth in 2D, N in 3D]: 10 is over 1000x the bending
+#: stiffness of an Ecoflex actuator times its length; anything larger is a unit mistake
 MAX_TIP_FORCE = 10.0
+#: largest inner pressure of the pneumatic baseline [kPa]: 1 MPa is 40x the shear modulus of
+#: Ecoflex 00-30, far past any soft pneumatic actuator's working range
+MAX_PNEUMATIC_KPA = 1000.0
 
 
 class AssessError(DesignError):
@@ -29,8 +32,9 @@ class Loads(BaseModel):
     Parameters
     ----------
     max_force : float, optional
-        Largest tip force of the load-deflection curves, in +x and -x [N/mm]; omitted: the force
-        that deflects the unactuated actuator by 5% of its length at its tangent stiffness.
+        Largest tip force of the load-deflection curves, in +x and -x [N/mm per mm of depth in
+        2D, N of the whole actuator in 3D]; omitted: the force that deflects the unactuated
+        actuator by 5% of its length at its tangent stiffness.
     temperatures : tuple of float, optional
         Temperatures of the blocked force [K], in liquid water's range.
     vacuum_pressure : float, optional
@@ -42,6 +46,12 @@ class Loads(BaseModel):
         Compute the blocked force at each temperature.
     vacuum : bool, optional
         Compute the vacuum-jamming baseline.
+    pneumatic : bool, optional
+        Compute the pneumatic baseline.
+    pneumatic_max_pressure : float, optional
+        Largest inner pressure of the pneumatic baseline's ramp [kPa].
+    pneumatic_angle : float, optional
+        Bending angle the pneumatic chamber is pressurised to [deg]; omitted: the actuator's own.
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
@@ -49,7 +59,7 @@ class Loads(BaseModel):
     max_force: float | None = Field(
         None, gt=0, le=MAX_TIP_FORCE,
         description="largest tip force of the load-deflection curves, in +x and -x; omitted: the force "
-        "that deflects the unactuated actuator by 5% of its length at its tangent stiffness [N/mm]",
+        "that deflects the unactuated actuator by 5% of its length at its tangent stiffness [N/mm per mm of depth in 2D; N in 3D]",
     )
     temperatures: tuple[float, ...] = Field(
         (275.0, 285.0, 295.0), min_length=1, max_length=20,
@@ -65,6 +75,15 @@ class Loads(BaseModel):
     )
     blocking: bool = Field(True, description="compute the blocked force at each temperature [-]")
     vacuum: bool = Field(True, description="compute the vacuum-jamming baseline [-]")
+    pneumatic: bool = Field(True, description="compute the pneumatic baseline [-]")
+    pneumatic_max_pressure: float = Field(
+        100.0, gt=0, le=MAX_PNEUMATIC_KPA,
+        description="largest inner pressure of the pneumatic baseline's ramp [kPa]",
+    )
+    pneumatic_angle: float | None = Field(
+        None, gt=0, le=360,
+        description="bending angle the pneumatic chamber is pressurised to; omitted: the actuator's own [deg]",
+    )
 
     @field_validator("temperatures", mode="before")
     @classmethod

@@ -272,6 +272,11 @@ class Contact(EnergyTerm):
             raise ValueError(f"contact: a self-contacting boundary lies within dhat = {settings.dhat:g} mm of "
                              "itself in the reference state")
 
+    @property
+    def facets(self) -> np.ndarray:
+        """The boundary facets the collision mesh was built from (node numbers, as given)."""
+        return self._facets
+
     def between_components(self) -> Contact:
         """This contact without its self-contact (itself where it has none): the pairs between
         different components alone, e.g. for the particles' forces on a wall that also meets
