@@ -882,10 +882,10 @@ def assess_design(
         raise InputError(f"{'--workers' if workers is not None else '--scheduler'}: only with --replicas N > 1 "
                          f"(got {'--replicas ' + str(replicas) if replicas is not None else 'no --replicas'})")
     if scheduler is not None:
-        from hydrojam.study.sweep import SchedulerError, _check_address
+        from hydrojam.study.sweep import SchedulerError, check_address
 
         try:
-            _check_address(scheduler)
+            check_address(scheduler)
         except (SchedulerError, ValueError) as err:
             raise InputError(f"--scheduler: {err}") from None
 

@@ -7,8 +7,8 @@ from hydrojam._lazy import lazy_api
 
 _PUBLIC = {
     "hydrojam.assess.assessment": ["Assessment", "assess", "check_assessable"],
-    "hydrojam.assess.report": ["write_report"],
-    "hydrojam.assess.replicas": ["assess_replicas"],
+    "hydrojam.assess.report": ["write_report", "write_replica_report"],
+    "hydrojam.assess.replicas": ["assess_replicas", "check_replica_folder"],
     "hydrojam.assess.spec": ["AssessError", "Loads", "load_loads", "loads_from_dict"],
     "hydrojam.assess.design_map": ["design_map", "map_study", "MAP_VALUES", "MODULUS", "THICKNESS"],
 }

@@ -14,8 +14,7 @@ from hydrojam.actuator.geometry import MEMBRANE, STRAIN_LIMIT_LAYER
 from hydrojam.actuator.metrics import bending_angle_3d_deg, bending_angle_deg
 from hydrojam.assess.chamber import BLOCK_STIFFNESS_PER_MODULUS, empty_chamber, empty_chamber_mesh
 from hydrojam.assess.loading import Structure, tangent_stiffness
-from hydrojam.fem.newton import NewtonOptions
-from hydrojam.fem.path import PathOptions
+from hydrojam.fem import NewtonOptions, PathOptions
 from hydrojam.fem.terms import CentroidSpring, PressureTerm, ScaledTerm
 
 #: the pressure ramp's levels up to the largest pressure, before the angle is bracketed

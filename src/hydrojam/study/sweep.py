@@ -53,6 +53,7 @@ __all__ = [
     "PointOutcome",
     "SchedulerError",
     "estimated_cost",
+    "check_address",
     "run_point",
     "run_sweep",
 ]
@@ -177,7 +178,7 @@ def estimated_cost(design: Design) -> float:
     return design.particle_layers * design.particles_per_layer / design.mesh.size**2
 
 
-def _check_address(address: str) -> None:
+def check_address(address: str) -> None:
     """SchedulerError at once for a malformed address (a Client made of one hangs 20 s when
     collected)."""
     from distributed.comm.addressing import get_address_host_port
@@ -197,7 +198,7 @@ def _check_address(address: str) -> None:
 def _connect(address: str):
     from distributed import Client
 
-    _check_address(address)
+    check_address(address)
     try:
         return Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
     except (OSError, ValueError, TypeError) as err:
@@ -339,7 +340,7 @@ def run_sweep(
     lock = contextlib.ExitStack()
     try:
         if scheduler is not None:  # connected only when there is something to run
-            client = _connect(scheduler) if pending else _check_address(scheduler)
+            client = _connect(scheduler) if pending else check_address(scheduler)
         try:
             lock.enter_context(hold_lock(make_folder(out) / FOLDER_LOCK))
         except LockHeld as err:
