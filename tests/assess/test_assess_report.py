@@ -107,7 +107,7 @@ def test_assess_from_the_command_line_writes_the_report(tmp_path, design_file, c
     assert values["pneumatic_pressure_kPa"] > 0 and values["stiffness_active_over_pneumatic"] > 0
     assert (out / "load_deflection.png").stat().st_size > 0 and (out / "confinement.png").stat().st_size > 0
     page = (out / "report.html").read_text()  # the same report in one file: its figures inlined
-    assert "<h2>Conclusion</h2>" in page and "<table>" in page
+    assert "<h2>The answer</h2>" in page and "<table>" in page
     assert page.count('src="data:image/png;base64,') == 2 and 'src="load_deflection.png"' not in page
     import meshio
 

@@ -12,7 +12,7 @@ from scipy.optimize import brentq, minimize_scalar
 from hydrojam.fem.assembly import Block, Solid
 from hydrojam.fem.elements import element_for_meshio_type
 from hydrojam.fem.meshing import shell_sector
-from hydrojam.fem.path import PathOptions, solve_path
+from hydrojam.fem import PathOptions, solve_path
 from hydrojam.fem.problem import Problem, fixed
 from hydrojam.fem.terms import PressureTerm, ScaledTerm
 from hydrojam.materials.energies import NeoHookean

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hydrojam._io import finite_or_none
-from hydrojam.actuator.design import Design
+from hydrojam.actuator.design import Design, DesignError
 from hydrojam.actuator.model import build_model, check_supported
 from hydrojam.actuator.simulate import simulate
 from hydrojam.assess.chamber import actuator_structure, blocked_actuation, vacuum_jamming
