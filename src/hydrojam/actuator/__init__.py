@@ -24,6 +24,6 @@ _PUBLIC = {
     "hydrojam.actuator.provenance": ["source_provenance"],
     "hydrojam.actuator.render": ['render_state', 'state_surfaces', 'renders_available'],
     "hydrojam.actuator.movie": ['write_movie', 'NoStates'],
-    "hydrojam.actuator.page": ['write_run_page'],
+    "hydrojam.actuator.page": ['write_run_page', 'state_view'],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())
