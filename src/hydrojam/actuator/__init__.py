@@ -22,7 +22,7 @@ _PUBLIC = {
     "hydrojam.actuator.plots": ['plot_actuator', 'plot_angle_time', 'mid_section'],
     "hydrojam.actuator.geometry": ["actuator_2d"],
     "hydrojam.actuator.provenance": ["source_provenance"],
-    "hydrojam.actuator.render": ['render_state', 'state_surfaces', 'renders_available'],
+    "hydrojam.actuator.render": ['render_state', 'state_surfaces', 'renders_available', 'Renderer', 'swelling_range'],
     "hydrojam.actuator.movie": ['write_movie', 'NoStates'],
     "hydrojam.actuator.page": ['write_run_page', 'state_view'],
 }
