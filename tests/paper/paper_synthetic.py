@@ -190,7 +190,8 @@ BOXES_3D = [(-10.0, 10.0, -10.0, 10.0, -40.0, 0.0), (-18.0, -10.0, -10.0, 10.0, 
 
 def write_point_3d(out: Path, r: dict, bend: float, design=None) -> None:
     """A 3D point folder: design.toml (dimension 3) and a final.vtu of tetra10 boxes (membrane,
-    layer, particle) in results.write_vtu's layout (reference points + displacement), bent by ``bend``."""
+    layer, particle) in results.write_vtu's layout (reference points + displacement, body_id,
+    swelling_ratio 3 in the particle), bent by ``bend``."""
     pdir = out / r["point_dir"]
     pdir.mkdir(parents=True)
     if design is None:
@@ -201,4 +202,5 @@ def write_point_3d(out: Path, r: dict, bend: float, design=None) -> None:
     disp = np.zeros_like(pts)
     disp[:, 0] = bend * pts[:, 2] ** 2 / 40.0
     meshio.write(pdir / "final.vtu", meshio.Mesh(pts, [("tetra10", cells)], point_data={"displacement": disp},
-                                                 cell_data={"body_id": [body]}))
+                                                 cell_data={"body_id": [body],
+                                                            "swelling_ratio": [np.where(body >= 2, 3.0, 1.0)]}))

@@ -71,6 +71,40 @@ def test_a_3d_point_is_drawn_as_its_section_y0(tmp_path):
     assert (tmp_path / "shapes.png").read_bytes()[:8] == PNG_MAGIC
 
 
+def test_a_3d_sweep_is_drawn_as_renders_at_one_scale(tmp_path, monkeypatch):
+    """With PyVista, a 3D sweep whose points all hold a final.vtu is drawn as renders: one per
+    point, all framed by the box of every state and on one colour range; without it, as sections."""
+    import hydrojam.actuator as actuator
+    from hydrojam.actuator import render
+    from paper_synthetic import row, write_point_3d
+
+    if not render.renders_available(say=False):
+        pytest.skip("no PyVista renders here")
+    rows = [row("temperature", "stimulus.temperature", t, 30.0, -5.0, -2.0, point_dir=f"points/{k}")
+            for k, t in enumerate((275.0, 300.0))]
+    for r, bend in zip(rows, (-0.3, -0.6)):
+        write_point_3d(tmp_path, r, bend=bend)
+    drawn = []
+    draw = render.Renderer.draw
+
+    def spy(self, surf, title=""):
+        drawn.append((self.bounds.copy(), self.clim, surf.points.min(axis=0), surf.points.max(axis=0)))
+        return draw(self, surf, title)
+
+    monkeypatch.setattr(render.Renderer, "draw", spy)
+    pfigures.plot_shapes(tmp_path, rows, "stimulus.temperature", tmp_path / "shapes.png")
+    assert (tmp_path / "shapes.png").read_bytes()[:8] == PNG_MAGIC
+    assert len(drawn) == 2
+    (b0, c0, *_), (b1, c1, *_) = drawn
+    np.testing.assert_array_equal(b0, b1)
+    assert c0 == c1
+    for bounds, _, lo, hi in drawn:  # the box frames every state
+        assert np.all(bounds[0] <= lo) and np.all(hi <= bounds[1])
+    monkeypatch.setattr(actuator, "renders_available", lambda say=True: False)
+    pfigures.plot_shapes(tmp_path, rows, "stimulus.temperature", tmp_path / "sections.png")
+    assert len(drawn) == 2 and (tmp_path / "sections.png").read_bytes()[:8] == PNG_MAGIC
+
+
 def test_a_kept_record_without_final_vtu_is_drawn_as_its_mid_line(tmp_path):
     """A finished point put back from its kept record (design.toml, centreline.csv, no final.vtu):
     its panel is the strain-limit layer's mid-line rebuilt from centreline.csv, starting at the

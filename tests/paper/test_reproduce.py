@@ -5,6 +5,8 @@ No simulation runs: every point is already in the cache.
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from paper_synthetic import paper_like, write_point
 
@@ -181,6 +183,13 @@ def test_reproduce_3d_from_cached_points_with_the_2d_comparison(tmp_path):
     assert len(rows) == 10
     assert sum("bends less in 3D (θ -10.0°" in line for line in rows) == 3  # the 2D temperature sweep only
     assert sum("not run in 2D" in line for line in rows) == 7
+    page = (three / "report.html").read_text(encoding="utf-8")  # the report as one page that opens offline
+    assert not re.search(r'(src|href)="https?:', page)
+    figures = sorted(p.name for p in (three / "figures").glob("*.png"))
+    assert all(f"figures/{name}" in text for name in figures)  # the figures the Markdown names, inlined
+    assert page.count('<img src="data:image/png;base64,') == len(figures) and "## 2D against 3D" not in page
+    assert "<h2>2D against 3D (the same designs)</h2>" in page and "<h2>Final states in 3D</h2>" in page
+    assert len(re.findall(r'<div class="hj-scene" data-scene=', page)) == 13  # each of the 13 runs' final.vtu, once
 
 
 @pytest.mark.slow

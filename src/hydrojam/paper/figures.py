@@ -172,7 +172,10 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     without running) is drawn as it stands now, from its checkpoint (its title in grey says so:
     not an equilibrium), or where it has none, gets a panel saying so. A 3D point is drawn as its
     section y = 0 (the symmetry plane: half of every particle, the walls and the strain-limit
-    layer cut through the middle), seen along -y, as in its ``final.png``. Lengths in mm.
+    layer cut through the middle), seen along -y, as in its ``final.png``; where PyVista is
+    available (:func:`hydrojam.actuator.renders_available`) and every point of a 3D sweep is
+    finished with its final.vtu, each panel is instead a render of the whole actuator, all framed by
+    one box and coloured on one swelling range. Lengths in mm.
 
     Parameters
     ----------
@@ -196,6 +199,8 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     out = Path(out)
     symbol, _, unit = _sweep_for(param, label, unit)
     rows = sorted_by(rows, param)
+    if _plot_renders(out, rows, param, path, symbol, unit, label):
+        return
     panels = []
     for row in rows:
         pdir = out / str(row.get("point_dir") or "")
@@ -301,6 +306,50 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
                  f"{where}strain-limit layer on the -x side{now}", fontsize=10)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=DPI, format="png")
+
+
+def _plot_renders(out: Path, rows: Sequence[dict], param: str, path, symbol: str, unit: str | None,
+                  label: str | None) -> bool:
+    """The shapes figure of a 3D sweep as renders (:class:`hydrojam.actuator.Renderer`), one
+    panel per point, all framed by one box and coloured on one swelling range: where PyVista is
+    available and every point is finished with a 3D final.vtu. False (nothing written) otherwise."""
+    import meshio
+
+    from hydrojam.actuator import Renderer, renders_available, state_surfaces, swelling_range
+
+    files = [out / str(r.get("point_dir") or "") / "final.vtu" for r in rows]
+    if not rows or any(without_result(r) or not r.get("point_dir") or not f.is_file() for r, f in zip(rows, files)):
+        return False
+    meshes = [meshio.read(f) for f in files]
+    if any(m.cells[0].type != "tetra10" for m in meshes) or not renders_available(say=False):
+        return False
+    try:
+        surfs = [state_surfaces(m) for m in meshes]
+    except (KeyError, ValueError):  # a final.vtu without results.write_vtu's fields: the sections
+        return False
+    both = np.vstack([np.vstack([s.points, s.reference]) for s in surfs])
+    gel = np.concatenate([s.swelling[s.group("particles")] for s in surfs])
+    clim = swelling_range(gel) if len(gel) else None
+    n = len(rows)
+    ncols = min(n, SHAPES_MAX_COLUMNS)
+    nrows = math.ceil(n / ncols)
+    fig = Figure(figsize=(3.2 * ncols + 0.4, 3.3 * nrows + 0.8), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    for ax in axes.flat:
+        ax.set_axis_off()
+    with Renderer((640, 600), bounds=[both.min(axis=0), both.max(axis=0)], clim=clim) as renderer:
+        for ax, row, surf in zip(axes.flat, rows, surfs):
+            ax.imshow(renderer.draw(surf))
+            angle = number(row.get("bending_angle_deg"))
+            title = f"{symbol} = {fmt_param(number(row.get(param)), unit)}" + (
+                f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
+            bad = point_status(row) == PointStatus.NOT_CONVERGED
+            ax.set_title(title + (" (not converged)" if bad else ""), fontsize=9, color="tab:red" if bad else "k")
+    fig.suptitle(f"Deformed actuators, final states ({_sweep_for(param, label, unit)[1]}); 3D renders, one scale "
+                 "and one colour range of the swelling ratio", fontsize=10)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=DPI, format="png")
+    return True
 
 
 def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label: str, unit: str, *,

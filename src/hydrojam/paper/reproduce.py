@@ -3,7 +3,8 @@
 :func:`reproduce` runs the three sweeps of :func:`hydrojam.paper.study.paper_study` with
 :func:`hydrojam.study.sweep.run_sweep`, draws their figures (:mod:`hydrojam.paper.figures`) into
 ``OUT/figures/`` and writes ``OUT/report.md`` (:mod:`hydrojam.paper.report`), which checks the
-paper's statements (:mod:`hydrojam.paper.claims`) against hydrojam's numbers. With
+paper's statements (:mod:`hydrojam.paper.claims`) against hydrojam's numbers, and the same as one
+self-contained page ``OUT/report.html`` (:mod:`hydrojam.paper.page`). With
 ``dimension=3`` it runs the same points in 3D (spheres, the half model: the study "paper-3d" or
 "paper-3d-quick", never mixed with a 2D one in one folder), and the report compares them with the
 2D study of the same kind in ``compare_2d`` (:mod:`hydrojam.paper.compare`).
@@ -20,6 +21,7 @@ from hydrojam.paper.claims import check_claims
 from hydrojam.paper._rows import rows_of
 from hydrojam.paper.compare import read_2d_results
 from hydrojam.paper.figures import write_figures
+from hydrojam.paper.page import write_report_page
 from hydrojam.paper.report import write_report
 from hydrojam.paper.sections import check_page, results_lines, run_commits, time_lines, verdict_lines, write_sections
 from hydrojam.paper.study import paper_study
@@ -113,6 +115,7 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
                           base=study.base, compare_2d=table_2d, compare_source=compare_2d,
                           computed=None if report_only else len(computed), ran=not report_only,
                           states=states, overrides=overrides)
+    write_report_page(out, table, report)
     if results_pages:
         # the statements of the sweeps this study ran (a study of some sweeps says nothing of the others)
         results = [c for c in check_claims(table, dimension) if rows_of(table, c.claim.sweep)]
