@@ -78,6 +78,23 @@ def run_commits(study, out: str | os.PathLike) -> tuple[str, ...]:
     return tuple(sorted(commits))
 
 
+def _distinct_points(table, dimension: int) -> dict:
+    """Design key -> the first row of each distinct point of the study's sweeps (the base point
+    stands in several)."""
+    rows = {}
+    for sw in paper_sweeps(dimension):
+        for r in rows_of(table, sw.name):
+            rows.setdefault(r.get("key"), r)
+    return rows
+
+
+def _finished_runs(row: dict, replicas: int) -> int:
+    """How many runs of a point finished: its replicas used, or 1 for a single run that did."""
+    if replicas > 1:
+        return int(number(row.get("replicas_used")) or 0)
+    return int(point_status(row) in (PointStatus.OK, PointStatus.NOT_CONVERGED))
+
+
 def _state_cell(row: dict, states: dict) -> str:
     """A point's states with θ in each: "arc 1: 168.3; folded 2: 101.9 ± 0.7" (one state: its name)."""
     parts = []
@@ -126,10 +143,7 @@ def results_lines(table, base: Design, quick: bool, replicas: int, workers: int 
     sweeps = paper_sweeps(dim)
     rows = [r for sw in sweeps for r in rows_of(table, sw.name)]
     dirs = {d for r in rows for d in str(r.get("replica_dirs") or r.get("point_dir") or "").split(";") if d}
-    finished = {}  # key -> finished runs of the point (the base point is in several sweeps)
-    for r in rows:
-        ran = point_status(r) in (PointStatus.OK, PointStatus.NOT_CONVERGED)
-        finished[r.get("key")] = int(number(r.get("replicas_used")) or 0) if replicas > 1 else int(ran)
+    finished = {key: _finished_runs(r, replicas) for key, r in _distinct_points(table, dim).items()}
     L = [conditions_line(base, quick, replicas, workers, (sum(finished.values()), len(dirs)), run_commits,
                          overrides), "",
          "| sweep | point | θ [deg] | δx [mm] | δz [mm] | curling index | runs | states (runs: θ [deg]) | "
@@ -179,16 +193,12 @@ def time_lines(table, base: Design, quick: bool, replicas: int, workers: int | N
     -------
     list of str
     """
-    rows = {}
-    for sw in paper_sweeps(base.dimension):
-        for r in rows_of(table, sw.name):
-            rows.setdefault(r.get("key"), r)
+    rows = _distinct_points(table, base.dimension)
     runs = iters = 0.0
     compute = 0.0
     means = []
     for r in rows.values():
-        n = number(r.get("replicas_used")) if replicas > 1 else float(
-            point_status(r) in (PointStatus.OK, PointStatus.NOT_CONVERGED))
+        n = _finished_runs(r, replicas)
         it, wall = number(r.get("newton_iterations")), number(r.get("wall_time_s"))
         if not n or it is None:
             continue
