@@ -159,6 +159,7 @@ def test_the_kept_3d_records_give_the_report_again(tmp_path):
 
     data, kept, code = _kept_3d_study()
     assert kept == code
+    assert (data / "restore.sh").read_text() == (data.parent / "restore.sh").read_text()  # keep.py's copy
     n_kept = len([f for f in data.iterdir() if f.is_dir()])
     out = tmp_path / "out"
     for _ in range(2):
