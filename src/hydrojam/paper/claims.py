@@ -246,16 +246,20 @@ PAPER_CLAIMS: tuple[Claim, ...] = (
 #: claim id -> the default "why" of a disagreement (hypotheses, not findings)
 DISAGREEMENT_REASONS: dict[str, str] = {c.id: c.reason for c in PAPER_CLAIMS}
 
-#: the same for the 3D study (spheres): hypotheses without the 2D model's cylinders and plane strain
+#: the same for the 3D study (spheres): measured reasons where the quick 3D study and its model
+#: choices (docs/reproduce.md, "Sensitivity") found one, else hypotheses worded as such
 DISAGREEMENT_REASONS_3D: dict[str, str] = {
     **DISAGREEMENT_REASONS,
-    "T-angle": "likely path dependence: a column of nearly frictionless spheres can pass an instability at one "
-               "temperature and settle in another equilibrium (docs/actuator.md, the default design in 3D).",
-    "T-displacement": "likely the tip's path dependence with slippery particles, which can exceed the change "
-                      "between neighbouring temperatures.",
-    "T-dx-dominant": "likely the membrane's share of the swelling: the spheres bulge it in y as well as in x, and "
-                     "how much goes into the chamber's length (δz) is set by its hoop stretch and the elastomer "
-                     "parameters.",
+    "T-angle": "measured: the most swollen column folds (every run at 275 K) and a folded column bends less than "
+               "an arc (every run at 295 K); within each state θ falls as T rises. With friction 0.3 no run folds "
+               "and the statement agrees (docs/reproduce.md, Sensitivity).",
+    "T-displacement": "measured: no model choice tried (friction 0, 0.01, 0.3; the elastomer 2x stiffer) "
+                      "reproduces it; a column bent past 90° turns its tip back up, so |δx| and |δz| do not follow θ.",
+    "T-linear": "measured: no model choice tried (friction 0, 0.01, 0.3; the elastomer 2x stiffer) reproduces it; "
+                "the change of state between temperatures (fold or arc) makes the tip's path non-linear in T.",
+    "T-dx-dominant": "measured: it agrees with the elastomer 2x stiffer and disagrees at friction 0, 0.01 and 0.3: "
+                     "how much of the spheres' swelling goes into the chamber's length (δz) is set by the "
+                     "membrane's stiffness.",
     "PL-angle": "likely the soft membrane (G = 0.023 MPa, about 10x softer than the gel): a long chamber's spheres "
                 "can bulge it into a wider cluster instead of pushing along the axis, and the end states of long "
                 "chambers are path dependent.",
@@ -264,8 +268,10 @@ DISAGREEMENT_REASONS_3D: dict[str, str] = {
     "PL-dx": "likely the path dependence of long chambers and a membrane bulging round the spheres (the tip can "
              "rise and move little sideways).",
     "PL-dz": "likely a chamber that bulges and shortens instead of bending: its tip moves up, not down.",
-    "h-angle": "likely the elastomer parameters (a neo-Hookean Ecoflex of G = 0.023 MPa for the layer), which "
-               "set how much a thicker layer resists the particles' push.",
+    "h-angle": "measured: read as a thickness, a thicker layer resists the folded column's push more and θ falls "
+               "(every run folded); read as the strip's width, θ rises from 4 to 10 mm as the paper's does.",
+    "h-displacement": "measured: read as a thickness the tip's |δx| and |δz| fall from 4 to 10 mm with the angle; "
+                      "read as a width they rise from 4 to 10 mm and do not fall from 10 to 12 mm.",
 }
 
 
