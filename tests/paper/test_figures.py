@@ -72,8 +72,10 @@ def test_a_3d_point_is_drawn_as_its_section_y0(tmp_path):
 
 
 def test_a_3d_sweep_is_drawn_as_renders_at_one_scale(tmp_path, monkeypatch):
-    """With PyVista, a 3D sweep whose points all hold a final.vtu is drawn as renders: one per
-    point, all framed by the box of every state and on one colour range; without it, as sections."""
+    """With PyVista, a 3D sweep whose points with a result all hold a final.vtu is drawn as
+    renders: one per such point, all framed by the box of every state and on one colour range,
+    without a colour bar each (the figure draws one), a failed point's panel saying why; without
+    PyVista, as sections."""
     import hydrojam.actuator as actuator
     from hydrojam.actuator import render
     from paper_synthetic import row, write_point_3d
@@ -84,12 +86,15 @@ def test_a_3d_sweep_is_drawn_as_renders_at_one_scale(tmp_path, monkeypatch):
             for k, t in enumerate((275.0, 300.0))]
     for r, bend in zip(rows, (-0.3, -0.6)):
         write_point_3d(tmp_path, r, bend=bend)
+    rows.append(row("temperature", "stimulus.temperature", 285.0, None, None, None, status="failed",
+                    error="no replica in state arc"))
     drawn = []
     draw = render.Renderer.draw
 
-    def spy(self, surf, title=""):
+    def spy(self, surf, title="", scale_bar=True):
+        assert not scale_bar
         drawn.append((self.bounds.copy(), self.clim, surf.points.min(axis=0), surf.points.max(axis=0)))
-        return draw(self, surf, title)
+        return draw(self, surf, title, scale_bar)
 
     monkeypatch.setattr(render.Renderer, "draw", spy)
     pfigures.plot_shapes(tmp_path, rows, "stimulus.temperature", tmp_path / "shapes.png")
@@ -141,3 +146,15 @@ def test_a_kept_record_without_final_vtu_is_drawn_as_its_mid_line(tmp_path):
     pfigures.plot_shapes(tmp_path, [r], "stimulus.temperature", tmp_path / "shapes.png")
     with pytest.raises(OSError):
         pfigures._centreline_drawing(pdir)
+
+
+def test_a_title_gives_the_mean_angle_and_the_angle_of_the_run_drawn(tmp_path):
+    """A row of several runs is titled with their mean angle and, where the run drawn (its
+    point_dir) ended elsewhere, that run's angle; a row of one run with its angle alone."""
+    (tmp_path / "points/a").mkdir(parents=True)
+    (tmp_path / "points/a/metrics.json").write_text('{"bending_angle_deg": 100.84}')
+    r = {"bending_angle_deg": 146.0, "point_dir": "points/a", "replica_dirs": "points/a;points/b;points/c"}
+    assert pfigures._angle_lines(r, tmp_path) == "\nθ = 146.0° (mean of 3 runs)\ndrawn: run with θ = 100.8°"
+    assert pfigures._angle_lines({**r, "bending_angle_deg": 100.82}, tmp_path) == "\nθ = 100.8° (mean of 3 runs)"
+    assert pfigures._angle_lines({"bending_angle_deg": 30.0, "point_dir": "points/a"}, tmp_path) == "\nθ = 30.0°"
+    assert pfigures._angle_lines({"bending_angle_deg": None}, tmp_path) == "\nθ: —"
