@@ -326,7 +326,7 @@ def animate(
     scale and colour range for all frames. Where OUT holds a finished run, its report.html is
     rewritten to show the movie. Exit status 0, 2 for a folder without written states.
     """
-    from hydrojam.actuator.movie import NO_MP4, NoStates, mp4_encoder, write_movie
+    from hydrojam.actuator import NO_MP4, NoStates, mp4_encoder, write_movie
     from hydrojam.actuator.page import write_run_page
 
     if not out.is_dir():

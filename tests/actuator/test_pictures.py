@@ -159,7 +159,10 @@ def test_mp4_movie_holds_a_frame_per_state_and_the_last_a_second(tmp_path, monke
 
 
 def test_mp4_without_an_encoder_is_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    import hydrojam.actuator
+
     monkeypatch.setattr("hydrojam.actuator.movie.mp4_encoder", lambda: None)
+    monkeypatch.setattr(hydrojam.actuator, "mp4_encoder", lambda: None, raising=False)
     write_run(tmp_path / "run", dim=2, n=2)
     assert main(["animate", str(tmp_path / "run"), "--movie", str(tmp_path / "m.mp4")]) == 2
     err = capsys.readouterr().err.strip().splitlines()

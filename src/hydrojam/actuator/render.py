@@ -332,4 +332,4 @@ def write_png(path: str | os.PathLike, img: np.ndarray) -> None:
 
 
 __all__ = ["Surfaces", "state_surfaces", "Renderer", "render_state", "render_title", "renders_available",
-           "swelling_range", "write_png", "render_check", "MISSING"]
+           "swelling_range", "write_png", "render_check", "MISSING", "SWELLING_CMAP"]

@@ -7,7 +7,6 @@ A 3D point's shape is its section y = 0, the one ``final.png`` draws
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import textwrap
@@ -22,7 +21,8 @@ from hydrojam.actuator.metrics import centreline_points
 from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY, centreline_x
 from hydrojam.actuator.plots import mid_section
 from hydrojam.fem.elements import straight_pieces
-from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, without_result
+from hydrojam.paper._rows import (drawn_angle, fmt_param, number, point_status, rows_of, runs_of, sorted_by,
+                                  without_result)
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
 from hydrojam.study.cache import PointStatus
 
@@ -158,14 +158,10 @@ def _angle_lines(row: dict, out: Path) -> str:
     angle = number(row.get("bending_angle_deg"))
     if angle is None:
         return "\nθ: —"
-    runs = [d for d in str(row.get("replica_dirs") or "").split(";") if d]
-    if len(runs) <= 1:
+    if runs_of(row) == 1:
         return f"\nθ = {angle:.1f}°"
-    text = f"\nθ = {angle:.1f}° (mean of {len(runs)} runs)"
-    try:
-        drawn = number(json.loads((out / str(row.get("point_dir")) / "metrics.json").read_text()).get("bending_angle_deg"))
-    except (OSError, ValueError, AttributeError):
-        drawn = None
+    text = f"\nθ = {angle:.1f}° (mean of {runs_of(row)} runs)"
+    drawn = drawn_angle(out, row)
     if drawn is not None and abs(drawn - angle) >= 0.05:
         text += f"\ndrawn: run with θ = {drawn:.1f}°"
     return text
@@ -353,8 +349,7 @@ def _plot_renders(out: Path, rows: Sequence[dict], param: str, path, symbol: str
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
 
-    from hydrojam.actuator import Renderer, renders_available, state_surfaces, swelling_range
-    from hydrojam.actuator.render import SWELLING_CMAP
+    from hydrojam.actuator import SWELLING_CMAP, Renderer, renders_available, state_surfaces, swelling_range
 
     drawn = [r for r in rows if not without_result(r)]
     files = [out / str(r.get("point_dir") or "") / "final.vtu" for r in drawn]
