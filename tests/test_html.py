@@ -62,7 +62,8 @@ def test_3d_view_draws_turns_and_hides_the_membrane(tmp_path):
     assert float(np.abs(bare[canvas].astype(float) - first[canvas]).mean()) > 1.0, "hiding the membrane changed nothing"
 
 
-#: the share of a view's canvas pixels that are not the white background
+#: the share of a view's canvas pixels that are not the white background (all of them where its
+#: WebGL context was lost: the canvas turns black)
 _INK = """((i) => {
   const c = document.querySelectorAll(".hj-scene canvas")[i];
   const copy = Object.assign(document.createElement("canvas"), { width: c.width, height: c.height });
@@ -93,8 +94,8 @@ def test_a_page_of_more_views_than_webgl_contexts(tmp_path):
         for i in range(n):
             p.run(f"document.querySelectorAll('.hj-scene')[{i}].scrollIntoView()")
             p.wait(f"document.querySelectorAll('.hj-scene')[{i}].dataset.hjDrawn")
-            assert p.run(f"{_INK}({i})") > 0.02, f"view {i} is blank"
+            assert 0.02 < p.run(f"{_INK}({i})") < 0.9, f"view {i} is blank (or black: its context lost)"
         assert p.run(_DRAWN) == n
         p.run("window.scrollTo(0, 0)")
-        assert p.run(f"{_INK}(0)") > 0.02, "the first view was lost"
+        assert 0.02 < p.run(f"{_INK}(0)") < 0.9, "the first view was lost"
         assert p.console == []
