@@ -143,7 +143,7 @@ def _browse(page: Path) -> list[list[str]]:
             p.run(f"document.querySelectorAll('.hj-scene')[{i}].scrollIntoView({{block: 'center'}})")
             each.append(p.wait(f"document.querySelectorAll('.hj-scene')[{i}].dataset.hjDrawn"))
         console = list(p.console)
-    version = subprocess.run([CHROMIUM, "--version"], capture_output=True, text=True).stdout.strip()
+    version = subprocess.run([CHROMIUM, "--version"], capture_output=True, text=True).stdout.split(" built")[0].strip()
     cond = f"{version}, headless, software WebGL (SwiftShader), 1200 x 900 px window"
     return [["report.html opened: the page ready (the views in sight drawn)", cond + "; browser start included",
              f"{t_open:.1f} s", "—"],
@@ -168,7 +168,10 @@ def measure_study(study: Path) -> list[list[str]]:
         figures = re.findall(r"data:image/[a-z]+;base64,[A-Za-z0-9+/=]+", text)
         viewer = re.findall(r'<script type="(?:text/plain|module)".*?</script>', text, re.S)
         mb = lambda parts: sum(map(len, parts)) / 1e6  # noqa: E731
-        rows = [[f"report.html of `{study.name}` written", f"{len(views)} 3D views, {len(figures)} figures: "
+        import tomllib
+
+        name = tomllib.loads((study / "study.toml").read_text(encoding="utf-8")).get("name", study.name)
+        rows = [[f"report.html of `{name}` written", f"{len(views)} 3D views, {len(figures)} figures: "
                  f"{len(text) / 1e6:.1f} MB (figures {mb(figures):.1f} MB, 3D views {mb(views):.1f} MB, "
                  f"viewer code {mb(viewer):.2f} MB)", f"{t:.1f} s", f"{_cpu[-1]:.1f} s"]]
         rows += _browse(path)
