@@ -100,7 +100,8 @@ def measure(outs: list[Path]) -> list[list[str]]:
                 mp4 = Path(tmp) / "movie.mp4"
                 t, _ = _timed(lambda: write_movie(out, mp4))
                 rows.append([f"{label}: movie, MP4 (`--movie X.mp4`)",
-                             f"{n} states, 800 x 700 px, H.264 {mp4.stat().st_size / 1e6:.2f} MB; ffmpeg's CPU time included",
+                             f"{n} states, 800 x 700 px, H.264 {mp4.stat().st_size / 1e6:.2f} MB; "
+                             "ffmpeg's CPU time included",
                              f"{t:.1f} s", f"{_cpu[-1]:.1f} s"])
             if is3d:
                 page = Path(tmp) / "page"

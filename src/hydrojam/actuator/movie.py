@@ -1,6 +1,6 @@
-"""An actuation movie (GIF, or MP4 where an H.264 encoder is found: :func:`mp4_encoder`) from the states a run wrote: ``steps/*.vtu`` in the order of
-``results.pvd``, with each step's load parameter s, temperature and bending angle from
-``history.csv``.
+"""An actuation movie (GIF, or MP4 where an H.264 encoder is found: :func:`mp4_encoder`) from
+the states a run wrote: ``steps/*.vtu`` in the order of ``results.pvd``, with each step's load
+parameter s, temperature and bending angle from ``history.csv``.
 
 A 3D run's frames are renders of the whole actuator (:mod:`hydrojam.actuator.render`, with the
 extra ``render``; without it, its section y = 0), a 2D run's the section drawn as in
