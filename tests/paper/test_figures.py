@@ -158,3 +158,23 @@ def test_a_title_gives_the_mean_angle_and_the_angle_of_the_run_drawn(tmp_path):
     assert pfigures._angle_lines({**r, "bending_angle_deg": 100.82}, tmp_path) == "\nθ = 100.8° (mean of 3 runs)"
     assert pfigures._angle_lines({"bending_angle_deg": 30.0, "point_dir": "points/a"}, tmp_path) == "\nθ = 30.0°"
     assert pfigures._angle_lines({"bending_angle_deg": None}, tmp_path) == "\nθ: —"
+
+
+def test_a_state_no_run_of_a_sweep_reached_gets_no_figure(tmp_path):
+    """Of a sweep's state figures, those of states none of its runs reached are not written (an
+    earlier one is removed): a figure of empty panels only says what the table already does."""
+    from paper_synthetic import row
+
+    from hydrojam.paper.study import PAPER_SWEEPS
+
+    sw = next(s for s in PAPER_SWEEPS if s.name == "temperature")
+    main = [row("temperature", "stimulus.temperature", t, 30.0, -5.0, -2.0, point_dir=None) for t in (275.0, 285.0)]
+    none = [{**r, "status": "failed", "bending_angle_deg": None, "error": "no replica in state multi-folded"}
+            for r in main]
+    (tmp_path / "figures").mkdir()
+    stale = tmp_path / pfigures.state_figure_name(sw, "multi-folded")
+    stale.write_bytes(b"old")
+    written = pfigures.write_figures(tmp_path, main, {"arc": main, "multi-folded": none})
+    names = {p.name for p in written}
+    assert pfigures.state_figure_name(sw, "arc").split("/")[-1] in names
+    assert not any("multi-folded" in n for n in names) and not stale.exists()

@@ -523,8 +523,9 @@ def write_figures(out: str | os.PathLike, table, states: dict | None = None) -> 
 
     The figures are ``<sweep>_shapes.png`` (:func:`plot_shapes`) and ``<sweep>_trends.png``
     (:func:`plot_trends`); a sweep without rows is skipped. Where the runs reach two states or
-    more, each state also gets ``<sweep>_shapes_<state>.png``: every point drawn as one replica in
-    that state (a point with none says so).
+    more, each state that a run of the sweep reached also gets ``<sweep>_shapes_<state>.png``:
+    every point drawn as one replica in that state (a point with none says so); a state that none
+    reached gets none (an earlier one is removed).
 
     Parameters
     ----------
@@ -552,7 +553,10 @@ def write_figures(out: str | os.PathLike, table, states: dict | None = None) -> 
         written += [shapes, trends]
         for state, state_table in (states or {}).items() if len(states or {}) > 1 else ():
             path = out / state_figure_name(sw, state)
-            plot_shapes(out, rows_of(state_table, sw.name), sw.field, path, label=f"{sw.label} ({state})",
-                        unit=sw.unit)
+            state_rows = rows_of(state_table, sw.name)
+            if all(without_result(r) for r in state_rows):  # no run of this sweep in that state: no figure
+                path.unlink(missing_ok=True)
+                continue
+            plot_shapes(out, state_rows, sw.field, path, label=f"{sw.label} ({state})", unit=sw.unit)
             written.append(path)
     return written
