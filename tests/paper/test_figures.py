@@ -162,7 +162,8 @@ def test_a_title_gives_the_mean_angle_and_the_angle_of_the_run_drawn(tmp_path):
 
 def test_a_state_no_run_of_a_sweep_reached_gets_no_figure(tmp_path):
     """Of a sweep's state figures, those of states none of its runs reached are not written (an
-    earlier one is removed): a figure of empty panels only says what the table already does."""
+    earlier one is removed): a figure of empty panels only says what the table already does; a
+    sweep whose runs reached one state gets none (its shapes figure shows that state)."""
     from paper_synthetic import row
 
     from hydrojam.paper.study import PAPER_SWEEPS
@@ -174,7 +175,10 @@ def test_a_state_no_run_of_a_sweep_reached_gets_no_figure(tmp_path):
     (tmp_path / "figures").mkdir()
     stale = tmp_path / pfigures.state_figure_name(sw, "multi-folded")
     stale.write_bytes(b"old")
-    written = pfigures.write_figures(tmp_path, main, {"arc": main, "multi-folded": none})
+    written = pfigures.write_figures(tmp_path, main, {"arc": main[:1] + none[1:], "folded": none[:1] + main[1:],
+                                                     "multi-folded": none})
     names = {p.name for p in written}
-    assert pfigures.state_figure_name(sw, "arc").split("/")[-1] in names
-    assert not any("multi-folded" in n for n in names) and not stale.exists()
+    assert {n for n in names if "_shapes_" in n} == {"temperature_shapes_arc.png", "temperature_shapes_folded.png"}
+    assert not stale.exists()
+    written = pfigures.write_figures(tmp_path, main, {"arc": main, "multi-folded": none})
+    assert not any("_shapes_" in p.name for p in written) and not (tmp_path / "figures/temperature_shapes_arc.png").exists()

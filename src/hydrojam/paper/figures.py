@@ -522,10 +522,10 @@ def write_figures(out: str | os.PathLike, table, states: dict | None = None) -> 
     """Write both figures of every sweep into ``OUT/figures/``.
 
     The figures are ``<sweep>_shapes.png`` (:func:`plot_shapes`) and ``<sweep>_trends.png``
-    (:func:`plot_trends`); a sweep without rows is skipped. Where the runs reach two states or
-    more, each state that a run of the sweep reached also gets ``<sweep>_shapes_<state>.png``:
-    every point drawn as one replica in that state (a point with none says so); a state that none
-    reached gets none (an earlier one is removed).
+    (:func:`plot_trends`); a sweep without rows is skipped. Where a sweep's runs reach two states
+    or more, each state they reached also gets ``<sweep>_shapes_<state>.png``: every point drawn
+    as one replica in that state (a point with none says so); a state none reached, or a sweep's
+    only state, gets none (an earlier one is removed).
 
     Parameters
     ----------
@@ -551,10 +551,11 @@ def write_figures(out: str | os.PathLike, table, states: dict | None = None) -> 
         plot_shapes(out, rows, sw.field, shapes)
         plot_trends(rows, sw.field, trends, sw.label, sw.unit)
         written += [shapes, trends]
-        for state, state_table in (states or {}).items() if len(states or {}) > 1 else ():
+        by_state = {state: rows_of(t, sw.name) for state, t in (states or {}).items()}
+        reached = [state for state, r in by_state.items() if not all(without_result(x) for x in r)]
+        for state, state_rows in by_state.items():
             path = out / state_figure_name(sw, state)
-            state_rows = rows_of(state_table, sw.name)
-            if all(without_result(r) for r in state_rows):  # no run of this sweep in that state: no figure
+            if len(reached) < 2 or state not in reached:  # the sweep's shapes figure shows its one state
                 path.unlink(missing_ok=True)
                 continue
             plot_shapes(out, state_rows, sw.field, path, label=f"{sw.label} ({state})", unit=sw.unit)
