@@ -132,6 +132,18 @@ class Page:
             time.sleep(0.05)
         return time.monotonic() - start
 
+    def drag(self, start: tuple[float, float], end: tuple[float, float], steps: int = 8) -> None:
+        """A left-button mouse drag from ``start`` to ``end`` (window pixels)."""
+        self._call("Input.dispatchMouseEvent", type="mouseMoved", x=start[0], y=start[1])
+        self._call("Input.dispatchMouseEvent", type="mousePressed", x=start[0], y=start[1], button="left",
+                   buttons=1, clickCount=1)
+        for k in range(1, steps + 1):
+            x = start[0] + (end[0] - start[0]) * k / steps
+            y = start[1] + (end[1] - start[1]) * k / steps
+            self._call("Input.dispatchMouseEvent", type="mouseMoved", x=x, y=y, button="left", buttons=1)
+        self._call("Input.dispatchMouseEvent", type="mouseReleased", x=end[0], y=end[1], button="left",
+                   buttons=1, clickCount=1)
+
     def screenshot(self, path: str | os.PathLike | None = None) -> np.ndarray:
         """The window's picture (h, w, 3); saved as PNG at ``path`` where given."""
         from PIL import Image

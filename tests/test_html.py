@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -82,7 +83,8 @@ _DRAWN = "document.querySelectorAll('.hj-scene[data-hj-drawn]').length"
 def test_a_page_of_more_views_than_webgl_contexts(tmp_path):
     """20 views, more than a browser keeps WebGL contexts (about 16): the page loads without a
     console message (no context lost); only the views near the window are built, the first drawn;
-    each view scrolled to is drawn, and the first is still drawn after all were."""
+    each view scrolled to is drawn, the first is still drawn after all were, and a mouse drag
+    turns it."""
     n = 20
     page = tmp_path / "page.html"
     views = [state_view(bent(box_mesh(), 2.0 * i), f"hj-point-{i}", title=f"point {i}") for i in range(n)]
@@ -98,4 +100,8 @@ def test_a_page_of_more_views_than_webgl_contexts(tmp_path):
         assert p.run(_DRAWN) == n
         p.run("window.scrollTo(0, 0)")
         assert 0.02 < p.run(f"{_INK}(0)") < 0.9, "the first view was lost"
+        before = p.screenshot()[100:560, 60:900].astype(float)
+        p.drag((480, 330), (680, 330))  # the first view turned by the mouse, through the shared renderer
+        time.sleep(0.5)
+        assert float(np.abs(p.screenshot()[100:560, 60:900] - before).mean()) > 2.0, "dragging did not turn the view"
         assert p.console == []
