@@ -1,19 +1,26 @@
-"""What the pictures of a run cost: the 3D render (final.png's), the actuation movie and the HTML
-page, drawn from a finished run's folder after the run (never inside the solve).
+"""What the pictures of a run cost: the 3D render (final.png's), the actuation movie (GIF, and MP4
+where an ffmpeg is found) and the HTML page, drawn from a finished run's folder after the run
+(never inside the solve); and what a study's report.html weighs and costs to open.
 
     python benchmarks/pictures.py OUT [OUT ...] [--markdown docs/benchmarks.md]
+    python benchmarks/pictures.py --study STUDY [--markdown docs/benchmarks.md]
 
 OUT: folders of finished runs of ``hydrojam run`` (2D or 3D, with their steps/*.vtu). A 3D final
 state's render is timed twice in one process: the first of the process includes importing PyVista
-and opening the off-screen OpenGL context. ``--markdown PAGE``
-writes the table into PAGE's section between ``<!-- pictures.py: costs -->`` and
-``<!-- /pictures.py: costs -->``.
+and opening the off-screen OpenGL context. STUDY: the folder of a finished 3D study of
+``hydrojam reproduce`` (its report.md, figures, results.csv and points' final.vtu, read only):
+its report.html is written anew into a temporary folder, its size split into its parts, and,
+where Chromium is installed, opened headless (software WebGL) and scrolled through, view by
+view. ``--markdown PAGE`` writes the table into PAGE's section between
+``<!-- pictures.py: costs -->`` and ``<!-- /pictures.py: costs -->`` (``study`` with ``--study``).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -36,12 +43,18 @@ def _commit() -> str:
 _cpu: list[float] = []
 
 
+def _cpu_time() -> float:
+    """CPU time [s] of this process (all its threads: llvmpipe's included) and of its finished
+    child processes (ffmpeg's)."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
 def _timed(fn):
-    """(wall time [s], result) of ``fn()``; its CPU time [s] (this process, all its threads:
-    llvmpipe's included) appended to ``_cpu``."""
-    t0, c0 = time.perf_counter(), time.process_time()
+    """(wall time [s], result) of ``fn()``; its CPU time [s] (:func:`_cpu_time`) appended to ``_cpu``."""
+    t0, c0 = time.perf_counter(), _cpu_time()
     out = fn()
-    _cpu.append(time.process_time() - c0)
+    _cpu.append(_cpu_time() - c0)
     return time.perf_counter() - t0, out
 
 
@@ -56,7 +69,7 @@ def _label(out: Path) -> str:
 
 def measure(outs: list[Path]) -> list[list[str]]:
     """Rows (what, conditions, wall time, CPU time) of the costs, for each finished run's folder."""
-    from hydrojam.actuator.movie import write_movie, written_states
+    from hydrojam.actuator.movie import mp4_encoder, write_movie, written_states
     from hydrojam.actuator.page import final_state, write_run_page
     from hydrojam.actuator.render import render_state
 
@@ -83,6 +96,13 @@ def measure(outs: list[Path]) -> list[list[str]]:
             t, _ = _timed(lambda: write_movie(out, gif))
             rows.append([f"{label}: movie (`hydrojam animate`)", f"{n} states, 800 x 700 px, GIF {gif.stat().st_size / 1e6:.1f} MB",
                          f"{t:.1f} s ({t / n:.2f} s a frame)", f"{_cpu[-1]:.1f} s"])
+            if mp4_encoder() is not None:
+                mp4 = Path(tmp) / "movie.mp4"
+                t, _ = _timed(lambda: write_movie(out, mp4))
+                rows.append([f"{label}: movie, MP4 (`--movie X.mp4`)",
+                             f"{n} states, 800 x 700 px, H.264 {mp4.stat().st_size / 1e6:.2f} MB; "
+                             "ffmpeg's CPU time included",
+                             f"{t:.1f} s", f"{_cpu[-1]:.1f} s"])
             if is3d:
                 page = Path(tmp) / "page"
                 page.mkdir(exist_ok=True)
@@ -92,6 +112,70 @@ def measure(outs: list[Path]) -> list[list[str]]:
                 t, path = _timed(lambda: write_run_page(page, mesh))
                 rows.append([f"{label}: report.html", f"final.png and the 3D view inlined: {path.stat().st_size / 1e6:.1f} MB",
                              f"{t:.2f} s", f"{_cpu[-1]:.2f} s"])
+    return rows
+
+
+def _study_copy(study: Path, dest: Path) -> None:
+    """What report.html is written from: report.md, figures/, results.csv, each point's final.vtu
+    and metrics.json."""
+    for name in ("report.md", "results.csv"):
+        shutil.copy2(study / name, dest / name)
+    shutil.copytree(study / "figures", dest / "figures")
+    for f in (study / "points").glob("*/*"):
+        if f.name in ("final.vtu", "metrics.json"):
+            (dest / f.parent.relative_to(study)).mkdir(parents=True, exist_ok=True)
+            shutil.copy2(f, dest / f.relative_to(study))
+
+
+def _browse(page: Path) -> list[list[str]]:
+    """Rows of opening ``page`` in headless Chromium: the first view drawn, each view scrolled to."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from chromium import CHROMIUM, Page
+
+    if CHROMIUM is None:
+        return []
+    t0 = time.perf_counter()
+    with Page(page.as_uri(), (1200, 900)) as p:
+        p.wait("document.body.dataset.hjReady")
+        t_open = time.perf_counter() - t0
+        n = p.run("document.querySelectorAll('.hj-scene').length")
+        each = []
+        for i in range(n):
+            p.run(f"document.querySelectorAll('.hj-scene')[{i}].scrollIntoView({{block: 'center'}})")
+            each.append(p.wait(f"document.querySelectorAll('.hj-scene')[{i}].dataset.hjDrawn"))
+        console = list(p.console)
+    version = subprocess.run([CHROMIUM, "--version"], capture_output=True, text=True).stdout.split(" built")[0].strip()
+    cond = f"{version}, headless, software WebGL (SwiftShader), 1200 x 900 px window"
+    return [["report.html opened: the page ready (the views in sight drawn)", cond + "; browser start included",
+             f"{t_open:.1f} s", "—"],
+            [f"a 3D view drawn once scrolled to ({n} views, one shared WebGL context)",
+             cond + f"; console messages: {len(console)}",
+             f"{sum(each) / max(n, 1):.2f} s a view (most {max(each, default=0):.2f} s)", "—"]]
+
+
+def measure_study(study: Path) -> list[list[str]]:
+    """Rows (what, conditions, wall time, CPU time) of a study's report.html: written, its size and
+    parts, and (with Chromium) opened."""
+    from hydrojam.paper.page import write_report_page
+    from hydrojam.study.table import SweepTable
+
+    with tempfile.TemporaryDirectory() as tmp:
+        dest = Path(tmp)
+        _study_copy(study, dest)
+        table = SweepTable.read(dest)
+        t, path = _timed(lambda: write_report_page(dest, table, dest / "report.md"))
+        text = path.read_text(encoding="utf-8")
+        views = re.findall(r'<script type="application/json" id="hj-point-\d+">.*?</script>', text, re.S)
+        figures = re.findall(r"data:image/[a-z]+;base64,[A-Za-z0-9+/=]+", text)
+        viewer = re.findall(r'<script type="(?:text/plain|module)".*?</script>', text, re.S)
+        mb = lambda parts: sum(map(len, parts)) / 1e6  # noqa: E731
+        import tomllib
+
+        name = tomllib.loads((study / "study.toml").read_text(encoding="utf-8")).get("name", study.name)
+        rows = [[f"report.html of `{name}` written", f"{len(views)} 3D views, {len(figures)} figures: "
+                 f"{len(text) / 1e6:.1f} MB (figures {mb(figures):.1f} MB, 3D views {mb(views):.1f} MB, "
+                 f"viewer code {mb(viewer):.2f} MB)", f"{t:.1f} s", f"{_cpu[-1]:.1f} s"]]
+        rows += _browse(path)
     return rows
 
 
@@ -120,16 +204,20 @@ def replace_section(page: str, name: str, text: str) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("outs", type=Path, nargs="+", help="finished runs' folders (2D or 3D)")
-    ap.add_argument("--markdown", help="write the table into this page's section 'costs'")
+    ap.add_argument("outs", type=Path, nargs="*", help="finished runs' folders (2D or 3D)")
+    ap.add_argument("--study", type=Path, help="a finished 3D study's folder: its report.html instead")
+    ap.add_argument("--markdown", help="write the table into this page's section 'costs' ('study' with --study)")
     args = ap.parse_args()
-    print_environment(["pyvista", "vtk", "matplotlib", "pillow"])
-    rows = measure(args.outs)
+    if bool(args.outs) == bool(args.study):
+        ap.error("give either run folders or --study")
+    print_environment(["pyvista", "vtk", "matplotlib", "pillow", "imageio-ffmpeg"])
+    rows = measure_study(args.study) if args.study else measure(args.outs)
     text = markdown(rows)
     print(text)
     if args.markdown:
         page = Path(args.markdown)
-        page.write_text(replace_section(page.read_text(encoding="utf-8"), "costs", text), encoding="utf-8")
+        section = "study" if args.study else "costs"
+        page.write_text(replace_section(page.read_text(encoding="utf-8"), section, text), encoding="utf-8")
 
 
 if __name__ == "__main__":

@@ -2,9 +2,10 @@
 interactive 3D views, in one file that opens offline in a browser.
 
 The 3D view is three.js (MIT, vendored in ``hydrojam/_vendor/three``: its single-file module build
-and OrbitControls) driven by ``hydrojam/_viewer.js``, all embedded in the page; it draws
-triangle surfaces and line segments given as arrays (:func:`scene_group`), each group with a
-check box that shows or hides it.
+and OrbitControls) driven by ``hydrojam/_viewer.js``, all embedded in the page (the vendored
+code zlib-compressed); it draws triangle surfaces and line segments given as arrays
+(:func:`scene_group`: positions quantised to uint16, zlib-compressed), each group with a check
+box that shows or hides it. Views are built as they come into sight and share one WebGL context.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import json
 import mimetypes
 import os
 import re
+import zlib
 from functools import cache
 from importlib import resources
 from pathlib import Path
@@ -106,30 +108,58 @@ def markdown_page(text: str, base: str | os.PathLike, title: str) -> str:
     return page_html(title, markdown_html(text, base))
 
 
-def _b64(a: np.ndarray) -> str:
-    return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
+def _quantised(points: np.ndarray) -> tuple[np.ndarray, list[float], list[float]]:
+    """``points`` (n, 3) [mm] as uint16 steps over their box: (steps, origin [mm], step [mm]), each
+    point within half a step (1/131070 of the box's extent) of where it was."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    step = np.where(hi > lo, (hi - lo) / 65535.0, 1.0)
+    q = np.clip(np.round((points - lo) / step), 0, 65535).astype("<u2")
+    return q, [float(v) for v in lo], [float(v) for v in step]
 
 
 def scene_group(name: str, label: str, points: np.ndarray, elements: np.ndarray, color=(0.6, 0.6, 0.6),
                 opacity: float = 1.0, vertex_rgb: np.ndarray | None = None) -> dict:
     """One group of a 3D view: triangles (``elements`` (k, 3)) or line segments ((k, 2)) over
-    ``points`` (n, 3) [mm] (only the points used are kept), one colour (RGB in [0, 1]) or a colour
-    per point (``vertex_rgb`` (n, 3) in [0, 1]), an opacity."""
+    ``points`` (n, 3) [mm] (only the points used are kept, each within 1/131070 of the group's
+    extent), one colour (RGB in [0, 1]) or a colour per point (``vertex_rgb`` (n, 3) in [0, 1]),
+    an opacity."""
     used, inverse = np.unique(elements, return_inverse=True)
+    q, origin, step = _quantised(np.asarray(points, dtype=float)[used])
+    index = inverse.reshape(elements.shape).astype("<u2" if len(used) <= 65536 else "<u4")
     g = {"name": name, "label": label, "kind": "lines" if elements.shape[1] == 2 else "mesh",
-         "positions": _b64(points[used].astype("<f4")), "indices": _b64(inverse.reshape(elements.shape).astype("<u4")),
-         "color": [float(c) for c in color], "opacity": float(opacity), "colors": None}
+         "origin": origin, "step": step, "color": [float(c) for c in color], "opacity": float(opacity),
+         "arrays": {"positions": q, "indices": index}}
     if vertex_rgb is not None:
-        g["colors"] = _b64(np.clip(np.round(255 * vertex_rgb[used]), 0, 255).astype(np.uint8))
+        g["arrays"]["colors"] = np.clip(np.round(255 * vertex_rgb[used]), 0, 255).astype(np.uint8)
     return g
+
+
+def _packed(groups: list[dict]) -> tuple[list[dict], str]:
+    """The groups' arrays in one zlib-compressed, base64 buffer (each array at a multiple of 4
+    bytes); each group's JSON names its arrays' [byte offset, element count, bytes an element]."""
+    chunks, offset, out = [], 0, []
+    for g in groups:
+        g = dict(g)
+        for key, a in g.pop("arrays").items():
+            a = np.ascontiguousarray(a)
+            g[key] = [offset, int(a.size), int(a.itemsize)]
+            pad = -a.nbytes % 4
+            chunks.append(a.tobytes() + b"\0" * pad)
+            offset += a.nbytes + pad
+        g.setdefault("colors", None)
+        out.append(g)
+    return out, base64.b64encode(zlib.compress(b"".join(chunks), 9)).decode("ascii")
 
 
 def scene_html(key: str, groups: list[dict], title: str = "", up=(0.0, 0.0, 1.0), view=(0.45, -1.0, 0.3),
                scale: tuple[str, float, float, list[str]] | None = None) -> str:
     """An interactive 3D view of ``groups`` (:func:`scene_group`): drag to rotate, wheel to zoom,
     right-drag to pan, a check box per group; ``view``: the direction the camera looks from;
-    ``scale``: a colour bar (label, min, max, colours from min to max as CSS colours)."""
-    data = {"up": list(up), "view": list(view), "groups": groups}
+    ``scale``: a colour bar (label, min, max, colours from min to max as CSS colours). The view is
+    built when it first comes near the window (or is clicked); all views of a page draw through
+    one WebGL context, so a page may hold any number of them."""
+    packed, blob = _packed(groups)
+    data = {"up": list(up), "view": list(view), "groups": packed, "data": blob}
     ramp = ""
     if scale is not None:
         label, lo, hi, stops = scale
@@ -142,14 +172,20 @@ def scene_html(key: str, groups: list[dict], title: str = "", up=(0.0, 0.0, 1.0)
             f'<script type="application/json" id="{key}">{_json_text(data)}</script>')
 
 
+@cache
+def _packed_asset(name: str) -> str:
+    """A vendored script zlib-compressed and base64 (the viewer inflates it in the browser)."""
+    return base64.b64encode(zlib.compress(_script_text(_asset(name)).encode("utf-8"), 9)).decode("ascii")
+
+
 def page_html(title: str, body: str) -> str:
     """A whole page: ``body`` (HTML) under ``title``; the 3D viewer's code is embedded when the
     body holds a 3D view (:func:`scene_html`)."""
     scripts = ""
     if 'class="hj-scene"' in body:
-        three, orbit = _asset("_vendor/three/three.module.min.js"), _asset("_vendor/three/OrbitControls.js")
-        scripts = (f'<script type="text/plain" id="hj-three">{_script_text(three)}</script>'
-                   f'<script type="text/plain" id="hj-orbit">{_script_text(orbit)}</script>'
+        three, orbit = _packed_asset("_vendor/three/three.module.min.js"), _packed_asset("_vendor/three/OrbitControls.js")
+        scripts = (f'<script type="text/plain" id="hj-three">{three}</script>'
+                   f'<script type="text/plain" id="hj-orbit">{orbit}</script>'
                    f'<script type="module">{_script_text(_asset("_viewer.js"))}</script>')
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>{html.escape(title)}</title>"

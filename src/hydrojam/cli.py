@@ -313,11 +313,12 @@ def run_design(
 @app.command()
 def animate(
     out: Path = typer.Argument(..., help="A run's output folder (hydrojam run -o OUT), with its steps/*.vtu."),
-    movie: Optional[Path] = typer.Option(None, "--movie", help="The GIF to write (default: OUT/movie.gif)."),
+    movie: Optional[Path] = typer.Option(None, "--movie", help="The .gif or .mp4 to write (default: OUT/movie.gif); "
+                                         "an MP4 needs ffmpeg (the extra 'render' brings one)."),
     fps: float = typer.Option(6.0, "--fps", help="Frames per second, in (0, 50]."),
     max_frames: int = typer.Option(120, "--max-frames", help="Most frames, in [2, 1000]; more states are thinned evenly."),
 ) -> None:
-    """Write the actuation movie of a run: a GIF from the as-prepared state to the end, one frame
+    """Write the actuation movie of a run: a GIF (or MP4) from the as-prepared state to the end, one frame
     per written state, with the load parameter s, the temperature and the bending angle on each.
 
     3D: renders of the whole actuator (membrane translucent, particles coloured by swelling ratio;
@@ -325,7 +326,7 @@ def animate(
     scale and colour range for all frames. Where OUT holds a finished run, its report.html is
     rewritten to show the movie. Exit status 0, 2 for a folder without written states.
     """
-    from hydrojam.actuator.movie import NoStates, write_movie
+    from hydrojam.actuator import NO_MP4, NoStates, mp4_encoder, write_movie
     from hydrojam.actuator.page import write_run_page
 
     if not out.is_dir():
@@ -334,8 +335,10 @@ def animate(
         raise InputError(f"--fps: allowed (0, 50] (got {fps:g})")
     if not (2 <= max_frames <= 1000):
         raise InputError(f"--max-frames: allowed [2, 1000] (got {max_frames})")
-    if movie is not None and movie.suffix.lower() != ".gif":
-        raise InputError(f"--movie: a .gif file (got {movie})")
+    if movie is not None and movie.suffix.lower() not in (".gif", ".mp4"):
+        raise InputError(f"--movie: a .gif or .mp4 file (got {movie})")
+    if movie is not None and movie.suffix.lower() == ".mp4" and mp4_encoder() is None:
+        raise InputError(f"--movie: {NO_MP4}")
     import time
 
     t0 = time.perf_counter()

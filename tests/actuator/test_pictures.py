@@ -5,13 +5,14 @@ off-screen (with the extra ``render``), the movie's frames and the run's HTML pa
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
 from boxes import bent, box_mesh, write_run
 
 from hydrojam.actuator import render as render_mod
-from hydrojam.actuator.movie import NoStates, write_movie, written_states
+from hydrojam.actuator.movie import NoStates, mp4_encoder, write_movie, written_states
 from hydrojam.actuator.page import run_page, write_run_page
 from hydrojam.actuator.render import MISSING, render_title, renders_available, state_surfaces
 from hydrojam.cli import main
@@ -140,12 +141,43 @@ def test_3d_movie_is_rendered_and_thinned(tmp_path):
         assert gif.n_frames == 3 and gif.size == (240, 200)
 
 
+@pytest.mark.skipif(mp4_encoder() is None, reason="no ffmpeg (on PATH or from imageio-ffmpeg, the extra 'render')")
+def test_mp4_movie_holds_a_frame_per_state_and_the_last_a_second(tmp_path, monkeypatch):
+    """An MP4 (H.264) where an encoder is found: one frame per state, then the last for a second
+    (fps frames), frame sides padded even; ffmpeg's own reader counts them."""
+    import subprocess
+
+    monkeypatch.setattr("hydrojam.actuator.movie.renders_available", lambda: False)
+    write_run(tmp_path / "run", dim=2, n=3)
+    path = write_movie(tmp_path / "run", tmp_path / "m.mp4", fps=4.0, size=(321, 281))
+    assert path.read_bytes()[4:8] == b"ftyp"
+    probe = subprocess.run([mp4_encoder(), "-hide_banner", "-i", str(path), "-map", "0:v", "-f", "null", "-"],
+                           capture_output=True, text=True, check=True)
+    assert "Video: h264" in probe.stderr and "322x282" in probe.stderr
+    assert re.findall(r"frame=\s*(\d+)", probe.stderr)[-1] == "7"
+    assert not list(tmp_path.glob(".m.*"))  # no temporary left
+
+
+def test_mp4_without_an_encoder_is_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    import hydrojam.actuator
+
+    monkeypatch.setattr("hydrojam.actuator.movie.mp4_encoder", lambda: None)
+    monkeypatch.setattr(hydrojam.actuator, "mp4_encoder", lambda: None, raising=False)
+    write_run(tmp_path / "run", dim=2, n=2)
+    assert main(["animate", str(tmp_path / "run"), "--movie", str(tmp_path / "m.mp4")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("hydrojam: error: --movie: an MP4 needs ffmpeg")
+    assert not (tmp_path / "m.mp4").exists()
+    with pytest.raises(ValueError, match="an MP4 needs ffmpeg"):
+        write_movie(tmp_path / "run", tmp_path / "m.mp4")
+
+
 def test_animate_command(tmp_path, capsys):
     """`hydrojam animate`: bad input is one line and exit 2; a run's folder gets movie.gif."""
     assert main(["animate", str(tmp_path / "none")]) == 2
     assert main(["animate", str(tmp_path), "--fps", "0"]) == 2
     assert main(["animate", str(tmp_path), "--max-frames", "1"]) == 2
-    assert main(["animate", str(tmp_path), "--movie", str(tmp_path / "m.mp4")]) == 2
+    assert main(["animate", str(tmp_path), "--movie", str(tmp_path / "m.avi")]) == 2
     assert main(["animate", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 5 and all(line.startswith("hydrojam: error: ") for line in err)

@@ -72,8 +72,10 @@ def test_a_3d_point_is_drawn_as_its_section_y0(tmp_path):
 
 
 def test_a_3d_sweep_is_drawn_as_renders_at_one_scale(tmp_path, monkeypatch):
-    """With PyVista, a 3D sweep whose points all hold a final.vtu is drawn as renders: one per
-    point, all framed by the box of every state and on one colour range; without it, as sections."""
+    """With PyVista, a 3D sweep whose points with a result all hold a final.vtu is drawn as
+    renders: one per such point, all framed by the box of every state and on one colour range,
+    without a colour bar each (the figure draws one), a failed point's panel saying why; without
+    PyVista, as sections."""
     import hydrojam.actuator as actuator
     from hydrojam.actuator import render
     from paper_synthetic import row, write_point_3d
@@ -84,12 +86,15 @@ def test_a_3d_sweep_is_drawn_as_renders_at_one_scale(tmp_path, monkeypatch):
             for k, t in enumerate((275.0, 300.0))]
     for r, bend in zip(rows, (-0.3, -0.6)):
         write_point_3d(tmp_path, r, bend=bend)
+    rows.append(row("temperature", "stimulus.temperature", 285.0, None, None, None, status="failed",
+                    error="no replica in state arc"))
     drawn = []
     draw = render.Renderer.draw
 
-    def spy(self, surf, title=""):
+    def spy(self, surf, title="", scale_bar=True):
+        assert not scale_bar
         drawn.append((self.bounds.copy(), self.clim, surf.points.min(axis=0), surf.points.max(axis=0)))
-        return draw(self, surf, title)
+        return draw(self, surf, title, scale_bar)
 
     monkeypatch.setattr(render.Renderer, "draw", spy)
     pfigures.plot_shapes(tmp_path, rows, "stimulus.temperature", tmp_path / "shapes.png")
@@ -141,3 +146,39 @@ def test_a_kept_record_without_final_vtu_is_drawn_as_its_mid_line(tmp_path):
     pfigures.plot_shapes(tmp_path, [r], "stimulus.temperature", tmp_path / "shapes.png")
     with pytest.raises(OSError):
         pfigures._centreline_drawing(pdir)
+
+
+def test_a_title_gives_the_mean_angle_and_the_angle_of_the_run_drawn(tmp_path):
+    """A row of several runs is titled with their mean angle and, where the run drawn (its
+    point_dir) ended elsewhere, that run's angle; a row of one run with its angle alone."""
+    (tmp_path / "points/a").mkdir(parents=True)
+    (tmp_path / "points/a/metrics.json").write_text('{"bending_angle_deg": 100.84}')
+    r = {"bending_angle_deg": 146.0, "point_dir": "points/a", "replica_dirs": "points/a;points/b;points/c"}
+    assert pfigures._angle_lines(r, tmp_path) == "\nθ = 146.0° (mean of 3 runs)\ndrawn: run with θ = 100.8°"
+    assert pfigures._angle_lines({**r, "bending_angle_deg": 100.82}, tmp_path) == "\nθ = 100.8° (mean of 3 runs)"
+    assert pfigures._angle_lines({"bending_angle_deg": 30.0, "point_dir": "points/a"}, tmp_path) == "\nθ = 30.0°"
+    assert pfigures._angle_lines({"bending_angle_deg": None}, tmp_path) == "\nθ: —"
+
+
+def test_a_state_no_run_of_a_sweep_reached_gets_no_figure(tmp_path):
+    """Of a sweep's state figures, those of states none of its runs reached are not written (an
+    earlier one is removed): a figure of empty panels only says what the table already does; a
+    sweep whose runs reached one state gets none (its shapes figure shows that state)."""
+    from paper_synthetic import row
+
+    from hydrojam.paper.study import PAPER_SWEEPS
+
+    sw = next(s for s in PAPER_SWEEPS if s.name == "temperature")
+    main = [row("temperature", "stimulus.temperature", t, 30.0, -5.0, -2.0, point_dir=None) for t in (275.0, 285.0)]
+    none = [{**r, "status": "failed", "bending_angle_deg": None, "error": "no replica in state multi-folded"}
+            for r in main]
+    (tmp_path / "figures").mkdir()
+    stale = tmp_path / pfigures.state_figure_name(sw, "multi-folded")
+    stale.write_bytes(b"old")
+    written = pfigures.write_figures(tmp_path, main, {"arc": main[:1] + none[1:], "folded": none[:1] + main[1:],
+                                                     "multi-folded": none})
+    names = {p.name for p in written}
+    assert {n for n in names if "_shapes_" in n} == {"temperature_shapes_arc.png", "temperature_shapes_folded.png"}
+    assert not stale.exists()
+    written = pfigures.write_figures(tmp_path, main, {"arc": main, "multi-folded": none})
+    assert not any("_shapes_" in p.name for p in written) and not (tmp_path / "figures/temperature_shapes_arc.png").exists()

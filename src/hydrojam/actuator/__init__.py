@@ -22,8 +22,9 @@ _PUBLIC = {
     "hydrojam.actuator.plots": ['plot_actuator', 'plot_angle_time', 'mid_section'],
     "hydrojam.actuator.geometry": ["actuator_2d", "actuator_3d"],
     "hydrojam.actuator.provenance": ["source_provenance"],
-    "hydrojam.actuator.render": ['render_state', 'state_surfaces', 'renders_available', 'Renderer', 'swelling_range'],
-    "hydrojam.actuator.movie": ['write_movie', 'NoStates'],
+    "hydrojam.actuator.render": ['render_state', 'state_surfaces', 'renders_available', 'Renderer', 'swelling_range',
+                                 'SWELLING_CMAP'],
+    "hydrojam.actuator.movie": ['write_movie', 'NoStates', 'mp4_encoder', 'NO_MP4'],
     "hydrojam.actuator.page": ['write_run_page', 'state_view'],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

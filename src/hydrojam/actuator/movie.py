@@ -1,6 +1,6 @@
-"""An actuation movie (GIF) from the states a run wrote: ``steps/*.vtu`` in the order of
-``results.pvd``, with each step's load parameter s, temperature and bending angle from
-``history.csv``.
+"""An actuation movie (GIF, or MP4 where an H.264 encoder is found: :func:`mp4_encoder`) from
+the states a run wrote: ``steps/*.vtu`` in the order of ``results.pvd``, with each step's load
+parameter s, temperature and bending angle from ``history.csv``.
 
 A 3D run's frames are renders of the whole actuator (:mod:`hydrojam.actuator.render`, with the
 extra ``render``; without it, its section y = 0), a 2D run's the section drawn as in
@@ -13,6 +13,8 @@ from __future__ import annotations
 import csv
 import os
 import re
+import shutil
+import subprocess
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +37,48 @@ MAX_FRAMES = 120
 
 class NoStates(ValueError):
     """The folder holds no written states to animate (one line: what is missing)."""
+
+
+#: why an MP4 cannot be written here (one line)
+NO_MP4 = ("an MP4 needs ffmpeg: install the extra 'render' (pip install 'hydrojam[render]', its imageio-ffmpeg "
+          "brings one) or put ffmpeg on PATH; a .gif needs neither")
+
+
+def mp4_encoder() -> str | None:
+    """The ffmpeg that writes MP4 (H.264): ``ffmpeg`` on PATH, else the one the package
+    imageio-ffmpeg (in the extra ``render``) ships; None where neither is found."""
+    found = shutil.which("ffmpeg")
+    if found:
+        return found
+    try:
+        import imageio_ffmpeg
+
+        return imageio_ffmpeg.get_ffmpeg_exe()
+    except (ImportError, RuntimeError):
+        return None
+
+
+def _write_mp4(frames: list[np.ndarray], fps: float, path: Path, exe: str) -> None:
+    """``frames`` (h, w, 3) uint8 as an H.264 MP4 (yuv420p, which players expect: frames padded
+    white to even sides), the last held a second more."""
+    h, w = frames[0].shape[:2]
+    ph, pw = h + h % 2, w + w % 2
+    cmd = [exe, "-hide_banner", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{pw}x{ph}",
+           "-r", f"{fps:g}", "-i", "-", "-an", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "20",
+           "-movflags", "+faststart", "-f", "mp4", str(path)]
+    held = frames + [frames[-1]] * max(1, round(fps))
+    proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        for f in held:
+            if (ph, pw) != (h, w):
+                f = np.pad(f, ((0, ph - h), (0, pw - w), (0, 0)), constant_values=255)
+            proc.stdin.write(np.ascontiguousarray(f, dtype=np.uint8).tobytes())
+        proc.stdin.close()
+    except BrokenPipeError:
+        pass
+    err = proc.stderr.read().decode(errors="replace").strip()
+    if proc.wait() != 0:
+        raise RuntimeError(f"ffmpeg ({exe}) could not write the MP4: {err.splitlines()[-1] if err else 'no message'}")
 
 
 @dataclass(frozen=True)
@@ -142,14 +186,15 @@ def _section_frame(mesh: meshio.Mesh, caption: str, box: np.ndarray, clim, size)
 
 def write_movie(out: str | os.PathLike, path: str | os.PathLike | None = None, fps: float = 6.0,
                 max_frames: int = MAX_FRAMES, size: tuple[int, int] = (800, 700)) -> Path:
-    """Write the actuation movie of a run's folder as a GIF (atomically).
+    """Write the actuation movie of a run's folder as a GIF, or an MP4 where ``path`` ends in
+    ``.mp4`` (atomically).
 
     Parameters
     ----------
     out : str or os.PathLike
         The run's output folder (:func:`written_states`).
     path : str or os.PathLike, optional
-        The GIF to write; default ``out/movie.gif``.
+        The GIF or MP4 to write; default ``out/movie.gif``.
     fps : float
         Frames per second; the last frame is held for a second more.
     max_frames : int
@@ -160,12 +205,22 @@ def write_movie(out: str | os.PathLike, path: str | os.PathLike | None = None, f
     Returns
     -------
     Path
-        The GIF written.
+        The movie written.
+
+    Raises
+    ------
+    NoStates
+        ``out`` holds no written states.
+    ValueError
+        An MP4 asked for where no encoder is found (:data:`NO_MP4`), before any frame is drawn.
     """
     from PIL import Image
 
-    states = _thin(written_states(out), max_frames)
     path = Path(out) / "movie.gif" if path is None else Path(path)
+    exe = None
+    if path.suffix.lower() == ".mp4" and (exe := mp4_encoder()) is None:
+        raise ValueError(NO_MP4)
+    states = _thin(written_states(out), max_frames)
     meshes = [meshio.read(st.path) for st in states]
     is3d = meshes[0].cells[0].type == "tetra10"
     render = is3d and renders_available()
@@ -185,6 +240,10 @@ def write_movie(out: str | os.PathLike, path: str | os.PathLike | None = None, f
         clim = swelling_range(gel)
         where = "3D, section y = 0: " if is3d else ""
         frames = [_section_frame(m, where + st.caption(), box, clim, size) for m, st in zip(meshes, states)]
+    if exe is not None:
+        with atomic_path(path) as tmp:
+            _write_mp4(frames, fps, Path(tmp), exe)
+        return path
     images = [Image.fromarray(f).convert("P", palette=Image.Palette.ADAPTIVE, colors=255) for f in frames]
     ms = int(round(1000.0 / fps))
     durations = [ms] * (len(images) - 1) + [ms + 1000]
@@ -193,4 +252,4 @@ def write_movie(out: str | os.PathLike, path: str | os.PathLike | None = None, f
     return path
 
 
-__all__ = ["write_movie", "written_states", "WrittenState", "NoStates", "MAX_FRAMES"]
+__all__ = ["write_movie", "written_states", "WrittenState", "NoStates", "MAX_FRAMES", "mp4_encoder", "NO_MP4"]

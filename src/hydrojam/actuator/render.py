@@ -220,8 +220,10 @@ class Renderer:
     def __exit__(self, *exc):
         self.close()
 
-    def draw(self, surf: Surfaces, title: str = "") -> np.ndarray:
-        """The image (h, w, 3) of uint8 of one state, with ``title`` on top."""
+    def draw(self, surf: Surfaces, title: str = "", scale_bar: bool = True) -> np.ndarray:
+        """The image (h, w, 3) of uint8 of one state, with ``title`` on top and, with
+        ``scale_bar``, the swelling ratio's colour bar at the bottom (a figure of several renders
+        on one colour range draws one bar itself)."""
         pv, p = self.pv, self.plotter
         p.clear()
         p.set_background("white")
@@ -232,11 +234,12 @@ class Renderer:
             mesh.cell_data["swelling ratio J"] = surf.swelling[gel]
             mesh = mesh.cell_data_to_point_data()
             p.add_mesh(mesh, scalars="swelling ratio J", cmap=SWELLING_CMAP, clim=clim, smooth_shading=True, render=False,
-                       scalar_bar_args={"title": "", "vertical": False, "width": 0.5,
+                       show_scalar_bar=scale_bar, scalar_bar_args={"title": "", "vertical": False, "width": 0.5,
                                         "height": 0.08, "position_x": 0.25, "position_y": 0.05, "fmt": "%.1f",
                                         "n_labels": 5, "title_font_size": 18, "label_font_size": 16,
                                         "color": "black"})
-            p.add_text("particle swelling ratio J", position="lower_edge", font_size=11, color="black", render=False)
+            if scale_bar:
+                p.add_text("particle swelling ratio J", position="lower_edge", font_size=11, color="black", render=False)
         layer = surf.group("strain_limit")
         if layer.any():
             p.add_mesh(_poly(pv, surf.points, surf.triangles[layer]), color=STRAIN_LIMIT_RGB, smooth_shading=False,
@@ -329,4 +332,4 @@ def write_png(path: str | os.PathLike, img: np.ndarray) -> None:
 
 
 __all__ = ["Surfaces", "state_surfaces", "Renderer", "render_state", "render_title", "renders_available",
-           "swelling_range", "write_png", "render_check", "MISSING"]
+           "swelling_range", "write_png", "render_check", "MISSING", "SWELLING_CMAP"]

@@ -1,9 +1,13 @@
 """Reading the rows of a sweep table (:class:`hydrojam.study.table.SweepTable` or plain dicts):
-numbers that may be missing, a point's status, one sweep's rows, a parameter value as text."""
+numbers that may be missing, a point's status, one sweep's rows, a parameter value as text, the
+runs a row stands for."""
 
 from __future__ import annotations
 
+import json
+import os
 from collections.abc import Sequence
+from pathlib import Path
 
 from hydrojam._io import finite_number
 from hydrojam.study.cache import ROW_STATUSES, PointStatus
@@ -70,3 +74,18 @@ def cell_pm(r: dict, key: str, fmt: str = "{:.1f}") -> str:
     """A cell with the replicas' spread: "74.2 ± 3.1" (or the plain value of a single run)."""
     sd = number(r.get(f"{key}_std"))
     return cell(r.get(key), fmt) + ("" if sd is None else " ± " + fmt.format(sd))
+
+
+def runs_of(row: dict) -> int:
+    """How many runs (replicas) a row's metrics are the mean of (1 for a row of one run)."""
+    return max(1, len([d for d in str(row.get("replica_dirs") or "").split(";") if d]))
+
+
+def drawn_angle(out: str | os.PathLike, row: dict) -> float | None:
+    """The bending angle [deg] of the run a row's pictures show (its ``point_dir``, replica 0 of
+    a replicated point), from its metrics.json; None where it cannot be read."""
+    try:
+        metrics = json.loads((Path(out) / str(row.get("point_dir")) / "metrics.json").read_text(encoding="utf-8"))
+        return number(metrics.get("bending_angle_deg"))
+    except (OSError, ValueError, AttributeError):
+        return None

@@ -21,7 +21,8 @@ from hydrojam.actuator.metrics import centreline_points
 from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY, centreline_x
 from hydrojam.actuator.plots import mid_section
 from hydrojam.fem.elements import straight_pieces
-from hydrojam.paper._rows import fmt_param, number, point_status, rows_of, sorted_by, without_result
+from hydrojam.paper._rows import (drawn_angle, fmt_param, number, point_status, rows_of, runs_of, sorted_by,
+                                  without_result)
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
 from hydrojam.study.cache import PointStatus
 
@@ -150,12 +151,40 @@ def _current_drawing(point_dir: Path):
     return drawing, f"not finished: {where}, θ now {state.metrics['bending_angle_deg']:.1f}°"
 
 
+def _angle_lines(row: dict, out: Path) -> str:
+    """A panel title's bending angle: the row's; for a row of several runs, their mean and, where
+    the run drawn (its ``point_dir``) ended at another angle, that run's, so the title matches
+    the picture."""
+    angle = number(row.get("bending_angle_deg"))
+    if angle is None:
+        return "\nθ: —"
+    if runs_of(row) == 1:
+        return f"\nθ = {angle:.1f}°"
+    text = f"\nθ = {angle:.1f}° (mean of {runs_of(row)} runs)"
+    drawn = drawn_angle(out, row)
+    if drawn is not None and abs(drawn - angle) >= 0.05:
+        text += f"\ndrawn: run with θ = {drawn:.1f}°"
+    return text
+
+
+def _not_in_state(row: dict) -> bool:
+    """Whether a row of a state's table is empty because none of its replicas ended in that state
+    (:func:`hydrojam.study.table.build_table`): not a failure."""
+    return str(row.get("error") or "").startswith("no replica in state")
+
+
 def _failure_text(row: dict, reason: str | None = None) -> str:
     """Why a panel is empty, wrapped to fit it."""
-    if reason is None and point_status(row) == PointStatus.UNFINISHED:
+    if reason is None and (point_status(row) == PointStatus.UNFINISHED or _not_in_state(row)):
         return "\n".join(textwrap.wrap(str(row.get("error") or "not finished"), 28)[:6])
     err = reason or str(row.get("error") or "no result")
     return "\n".join(textwrap.wrap(f"failed: {err}", 28)[:6])
+
+
+def _failure_colour(row: dict) -> str:
+    """An empty panel's text colour: grey where nothing failed (not finished, or no replica in the
+    state drawn), red otherwise."""
+    return "0.3" if point_status(row) == PointStatus.UNFINISHED or _not_in_state(row) else "tab:red"
 
 
 def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: str | os.PathLike, *,
@@ -173,9 +202,10 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
     not an equilibrium), or where it has none, gets a panel saying so. A 3D point is drawn as its
     section y = 0 (the symmetry plane: half of every particle, the walls and the strain-limit
     layer cut through the middle), seen along -y, as in its ``final.png``; where PyVista is
-    available (:func:`hydrojam.actuator.renders_available`) and every point of a 3D sweep is
-    finished with its final.vtu, each panel is instead a render of the whole actuator, all framed by
-    one box and coloured on one swelling range. Lengths in mm.
+    available (:func:`hydrojam.actuator.renders_available`), no point of a 3D sweep is unfinished
+    and every point with a result has its final.vtu, each panel is instead a render of the whole
+    actuator, all at one scale and on one swelling range under one colour bar (a point without a
+    result: its panel says why). Lengths in mm.
 
     Parameters
     ----------
@@ -265,10 +295,9 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         if panel["failed"] is not None:
             ax.set_title(head, fontsize=9)
             ax.text(0.5, 0.5, panel["failed"], transform=ax.transAxes, ha="center", va="center", fontsize=7,
-                    color="0.3" if point_status(row) == PointStatus.UNFINISHED else "tab:red")
+                    color=_failure_colour(row))
             continue
-        angle = number(row.get("bending_angle_deg"))
-        title = head + (f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
+        title = head + _angle_lines(row, out)
         if panel["line"] is not None:
             line, made = panel["line"]
             ax.plot(made[:, 0], made[:, 1], "--", color="0.4", lw=0.8, zorder=3)
@@ -311,14 +340,21 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
 def _plot_renders(out: Path, rows: Sequence[dict], param: str, path, symbol: str, unit: str | None,
                   label: str | None) -> bool:
     """The shapes figure of a 3D sweep as renders (:class:`hydrojam.actuator.Renderer`), one
-    panel per point, all framed by one box and coloured on one swelling range: where PyVista is
-    available and every point is finished with a 3D final.vtu. False (nothing written) otherwise."""
+    panel per point, all framed by one box, cropped alike (one scale) and coloured on one
+    swelling range under one colour bar; a failed point (or one with no replica in the state
+    drawn) gets a panel saying why. Where PyVista is available, no point is unfinished and every
+    other point has a 3D final.vtu. False (nothing written) otherwise."""
     import meshio
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
 
-    from hydrojam.actuator import Renderer, renders_available, state_surfaces, swelling_range
+    from hydrojam.actuator import SWELLING_CMAP, Renderer, renders_available, state_surfaces, swelling_range
 
-    files = [out / str(r.get("point_dir") or "") / "final.vtu" for r in rows]
-    if not rows or any(without_result(r) or not r.get("point_dir") or not f.is_file() for r, f in zip(rows, files)):
+    drawn = [r for r in rows if not without_result(r)]
+    files = [out / str(r.get("point_dir") or "") / "final.vtu" for r in drawn]
+    if (not drawn or any(point_status(r) == PointStatus.UNFINISHED for r in rows)
+            or any(not r.get("point_dir") or not f.is_file() for r, f in zip(drawn, files))):
         return False
     meshes = [meshio.read(f) for f in files]
     if any(m.cells[0].type != "tetra10" for m in meshes) or not renders_available(say=False):
@@ -330,23 +366,45 @@ def _plot_renders(out: Path, rows: Sequence[dict], param: str, path, symbol: str
     both = np.vstack([np.vstack([s.points, s.reference]) for s in surfs])
     gel = np.concatenate([s.swelling[s.group("particles")] for s in surfs])
     clim = swelling_range(gel) if len(gel) else None
+    with Renderer((640, 600), bounds=[both.min(axis=0), both.max(axis=0)], clim=clim) as renderer:
+        images = {id(r): renderer.draw(surf, scale_bar=False) for r, surf in zip(drawn, surfs)}
+    # one crop for all: the box of every image's ink, so the panels keep one scale
+    ink = np.zeros(next(iter(images.values())).shape[:2], dtype=bool)
+    for im in images.values():
+        ink |= (im < 250).any(axis=2)
+    ys, xs = np.nonzero(ink)
+    if len(ys):
+        m = 8
+        crop = (slice(max(ys.min() - m, 0), ys.max() + m + 1), slice(max(xs.min() - m, 0), xs.max() + m + 1))
+        images = {k: im[crop] for k, im in images.items()}
+    h, w = next(iter(images.values())).shape[:2]
     n = len(rows)
     ncols = min(n, SHAPES_MAX_COLUMNS)
     nrows = math.ceil(n / ncols)
-    fig = Figure(figsize=(3.2 * ncols + 0.4, 3.3 * nrows + 0.8), layout="constrained")
+    panel_w = 3.0
+    fig = Figure(figsize=(panel_w * ncols + 0.4, (panel_w * h / w + 0.55) * nrows + 1.3), layout="constrained")
     axes = fig.subplots(nrows, ncols, squeeze=False)
     for ax in axes.flat:
         ax.set_axis_off()
-    with Renderer((640, 600), bounds=[both.min(axis=0), both.max(axis=0)], clim=clim) as renderer:
-        for ax, row, surf in zip(axes.flat, rows, surfs):
-            ax.imshow(renderer.draw(surf))
-            angle = number(row.get("bending_angle_deg"))
-            title = f"{symbol} = {fmt_param(number(row.get(param)), unit)}" + (
-                f"\nθ = {angle:.1f}°" if angle is not None else "\nθ: —")
-            bad = point_status(row) == PointStatus.NOT_CONVERGED
-            ax.set_title(title + (" (not converged)" if bad else ""), fontsize=9, color="tab:red" if bad else "k")
-    fig.suptitle(f"Deformed actuators, final states ({_sweep_for(param, label, unit)[1]}); 3D renders, one scale "
-                 "and one colour range of the swelling ratio", fontsize=10)
+    for ax, row in zip(axes.flat, rows):
+        head = f"{symbol} = {fmt_param(number(row.get(param)), unit)}"
+        if id(row) not in images:
+            ax.imshow(np.full((h, w, 3), 255, dtype=np.uint8))
+            ax.set_title(head, fontsize=9)
+            ax.text(0.5, 0.5, _failure_text(row), transform=ax.transAxes, ha="center", va="center", fontsize=7,
+                    color=_failure_colour(row))
+            continue
+        ax.imshow(images[id(row)])
+        title = head + _angle_lines(row, out)
+        bad = point_status(row) == PointStatus.NOT_CONVERGED
+        ax.set_title(title + (" (not converged)" if bad else ""), fontsize=9, color="tab:red" if bad else "k")
+    if clim is not None:
+        bar = fig.colorbar(ScalarMappable(Normalize(*clim), colormaps[SWELLING_CMAP]), ax=axes, location="bottom",
+                           shrink=min(0.6, 2.4 / ncols + 0.2), aspect=40, pad=0.02)
+        bar.set_label("particle swelling ratio J (one range for every panel)", fontsize=8)
+        bar.ax.tick_params(labelsize=7)
+    fig.suptitle(f"Deformed actuators, final states ({_sweep_for(param, label, unit)[1]}); 3D renders at one scale\n"
+                 "membrane translucent, strain-limit layer orange, undeformed outline grey", fontsize=10)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=DPI, format="png")
     return True
@@ -464,9 +522,10 @@ def write_figures(out: str | os.PathLike, table, states: dict | None = None) -> 
     """Write both figures of every sweep into ``OUT/figures/``.
 
     The figures are ``<sweep>_shapes.png`` (:func:`plot_shapes`) and ``<sweep>_trends.png``
-    (:func:`plot_trends`); a sweep without rows is skipped. Where the runs reach two states or
-    more, each state also gets ``<sweep>_shapes_<state>.png``: every point drawn as one replica in
-    that state (a point with none says so).
+    (:func:`plot_trends`); a sweep without rows is skipped. Where a sweep's runs reach two states
+    or more, each state they reached also gets ``<sweep>_shapes_<state>.png``: every point drawn
+    as one replica in that state (a point with none says so); a state none reached, or a sweep's
+    only state, gets none (an earlier one is removed).
 
     Parameters
     ----------
@@ -492,9 +551,13 @@ def write_figures(out: str | os.PathLike, table, states: dict | None = None) -> 
         plot_shapes(out, rows, sw.field, shapes)
         plot_trends(rows, sw.field, trends, sw.label, sw.unit)
         written += [shapes, trends]
-        for state, state_table in (states or {}).items() if len(states or {}) > 1 else ():
+        by_state = {state: rows_of(t, sw.name) for state, t in (states or {}).items()}
+        reached = [state for state, r in by_state.items() if not all(without_result(x) for x in r)]
+        for state, state_rows in by_state.items():
             path = out / state_figure_name(sw, state)
-            plot_shapes(out, rows_of(state_table, sw.name), sw.field, path, label=f"{sw.label} ({state})",
-                        unit=sw.unit)
+            if len(reached) < 2 or state not in reached:  # the sweep's shapes figure shows its one state
+                path.unlink(missing_ok=True)
+                continue
+            plot_shapes(out, state_rows, sw.field, path, label=f"{sw.label} ({state})", unit=sw.unit)
             written.append(path)
     return written

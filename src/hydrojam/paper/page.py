@@ -13,6 +13,7 @@ import meshio
 from hydrojam._html import markdown_html, page_html
 from hydrojam._io import write_text_atomic
 from hydrojam.actuator import state_view
+from hydrojam.paper._rows import drawn_angle, number, runs_of
 from hydrojam.study.table import SweepTable
 
 __all__ = ["write_report_page"]
@@ -30,7 +31,7 @@ def _final_views(out: Path, table: SweepTable) -> list[str]:
         mesh = meshio.read(out / pdir / "final.vtu")
         if mesh.cells[0].type != "tetra10":
             continue
-        angle = row.get("bending_angle_deg")
+        angle = drawn_angle(out, row) if runs_of(row) > 1 else number(row.get("bending_angle_deg"))
         title = f"{row['sweep']} point {row['point']} ({pdir})" + ("" if angle is None else f": θ = {angle:.1f}°")
         try:
             views.append(state_view(mesh, f"hj-point-{len(views)}", title=title))
@@ -47,8 +48,9 @@ def write_report_page(out: str | os.PathLike, table: SweepTable, report: str | o
     body = markdown_html(Path(report).read_text(encoding="utf-8"), out)
     views = _final_views(out, table)
     if views:
-        body += ("<h2>Final states in 3D</h2><p>Each point's final state (its replica 0), as "
-                 f"{html.escape('final.vtu')} holds it: particles coloured by swelling ratio.</p>" + "\n".join(views))
+        body += ("<h2>Final states in 3D</h2><p>Each point's final state (its replica 0, and that run's bending "
+                 f"angle), as {html.escape('final.vtu')} holds it: particles coloured by swelling ratio. A view is "
+                 "built as it comes into sight.</p>" + "\n".join(views))
     path = out / "report.html"
     write_text_atomic(path, page_html("hydrojam reproduce", body))
     return path
