@@ -164,7 +164,9 @@ def test_reproduce_3d_from_cached_points_with_the_2d_comparison(tmp_path):
     _cache_3d_points(three, pstudy.paper_study(quick=True, dimension=3))
     page = tmp_path / "page.md"
     page.write_text("# p\n<!-- reproduce: paper-3d-quick -->\n<!-- /reproduce: paper-3d-quick -->\n"
-                    "<!-- reproduce: paper-3d-quick time -->\n<!-- /reproduce: paper-3d-quick time -->\n", encoding="utf-8")
+                    "<!-- reproduce: paper-3d-quick time -->\n<!-- /reproduce: paper-3d-quick time -->\n"
+                    "<!-- reproduce: paper-3d-quick compare -->\n<!-- /reproduce: paper-3d-quick compare -->\n",
+                    encoding="utf-8")
     assert main(["reproduce", "--dimension", "3", "--quick", "-o", str(three), "--quiet",
                  "--compare-2d", str(two), "--write-results", str(page)]) == 0
     written = page.read_text(encoding="utf-8")
@@ -172,6 +174,12 @@ def test_reproduce_3d_from_cached_points_with_the_2d_comparison(tmp_path):
     assert "| strain_limit_width | 12 mm |" in written and "| paper-3d-quick | claims |" in written
     cost = written.split("<!-- reproduce: paper-3d-quick time -->")[1]
     assert "| `hydrojam reproduce --dimension 3 --quick` | 15 of 15 | 900-900 (mean 900) | 10.0 min | 2.5 h |" in cost
+    # the page's 2D-against-3D section: each statement's verdict in both, then the points' table
+    compare = written.split("<!-- reproduce: paper-3d-quick compare -->")[1]
+    assert compare.startswith("\n| statement | 2D | 3D |\n|---|---|---|\n| T-angle | ")
+    assert "| hw-angle | — (3D only) | " in compare and "| PL-angle | — | agree |" in compare  # 2D ran T only
+    assert "Both reproduce: " in compare and f"(the 2D study in `{two}`)" in compare
+    assert "| point | θ 2D [deg] | θ 3D [deg] |" in compare and "## 2D against 3D" not in compare
     assert "paper-3d-quick" in (three / "study.toml").read_text()
     assert len(list((three / "figures").glob("*.png"))) == 8
     text = (three / "report.md").read_text(encoding="utf-8")

@@ -19,11 +19,11 @@ from pathlib import Path
 
 from hydrojam.paper.claims import check_claims
 from hydrojam.paper._rows import rows_of
-from hydrojam.paper.compare import read_2d_results
+from hydrojam.paper.compare import comparison_lines, read_2d_results
 from hydrojam.paper.figures import write_figures
 from hydrojam.paper.page import write_report_page
 from hydrojam.paper.report import write_report
-from hydrojam.paper.sections import (check_page, results_lines, run_commits, sensitivity_row, time_lines,
+from hydrojam.paper.sections import (check_page, compare_lines, results_lines, run_commits, sensitivity_row, time_lines,
                                      verdict_lines, write_sections, write_sensitivity_row)
 from hydrojam.paper.study import paper_study
 from hydrojam.study.sweep import PointOutcome, run_sweep
@@ -124,7 +124,13 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
         lines = results_lines(table, study.base, quick, replicas, workers, states, results, commits, overrides)
         cost = time_lines(table, study.base, quick, replicas, workers, commits, overrides)
         row = sensitivity_row(table, dimension, replicas, overrides, states, results, commits)
+        compare = None
+        if table_2d is not None:
+            results_2d = [c for c in check_claims(table_2d, 2) if rows_of(table_2d, c.claim.sweep)]
+            compare = compare_lines(results, results_2d, comparison_lines(table, table_2d, study.base, quick=quick,
+                                                                          out=out, source=compare_2d),
+                                    str(compare_2d))
         for page in results_pages:
-            write_sections(page, study.name, lines, verdict_lines(results, study.name), cost)
+            write_sections(page, study.name, lines, verdict_lines(results, study.name), cost, compare)
             write_sensitivity_row(page, study.name, dimension, row)
     return table, report

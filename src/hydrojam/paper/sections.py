@@ -29,11 +29,12 @@ from hydrojam.paper.claims import PAPER_CLAIMS, ClaimResult, Verdict, check_clai
 from hydrojam.paper.study import VARIANT_SEPARATOR, paper_sweeps, reproduce_command, study_name
 from hydrojam.study.cache import PointStatus
 
-__all__ = ["SECTION_KINDS", "SectionError", "check_page", "results_lines", "run_commits", "sensitivity_row",
-           "time_lines", "verdict_lines", "write_sections", "write_sensitivity_row"]
+__all__ = ["SECTION_KINDS", "SectionError", "check_page", "compare_lines", "results_lines", "run_commits",
+           "sensitivity_row", "time_lines", "verdict_lines", "write_sections", "write_sensitivity_row"]
 
-#: the sections a study can write on a page: "" (its points), " verdicts", " time"
-SECTION_KINDS = ("", " verdicts", " time")
+#: the sections a study can write on a page: "" (its points), " verdicts", " time", " compare"
+#: (a 3D study against its 2D peer)
+SECTION_KINDS = ("", " verdicts", " time", " compare")
 #: the section of verdict against model choice, after the study's kind ("paper-3d-quick sensitivity")
 SENSITIVITY = " sensitivity"
 #: the first cell of the row of the study under the default model choices
@@ -250,9 +251,11 @@ def check_page(page: str | os.PathLike, name: str) -> None:
 
 
 def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], verdicts: list[str],
-                   time: list[str] | None = None) -> list[str]:
+                   time: list[str] | None = None, compare: list[str] | None = None) -> list[str]:
     """Replace the sections of study ``name`` on ``page`` (atomically): ``NAME`` gets
-    ``table_lines``, ``NAME verdicts`` gets ``verdicts``, ``NAME time`` gets ``time``.
+    ``table_lines``, ``NAME verdicts`` gets ``verdicts``, ``NAME time`` gets ``time``, ``NAME
+    compare`` gets ``compare`` (a 3D study with its 2D peer: :func:`compare_lines`); a section
+    whose lines are not given keeps its text.
 
     Parameters
     ----------
@@ -264,6 +267,8 @@ def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], v
         The sections' new contents.
     time : list of str, optional
         The cost section's (:func:`time_lines`).
+    compare : list of str, optional
+        The 2D-against-3D section's (:func:`compare_lines`).
 
     Returns
     -------
@@ -281,8 +286,11 @@ def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], v
     except OSError as err:
         raise SectionError(f"{path}: cannot be read ({err.strerror or err})") from None
     written = []
-    for section, lines in ((name, table_lines), (f"{name} verdicts", verdicts), (f"{name} time", time or [])):
+    for section, lines in ((name, table_lines), (f"{name} verdicts", verdicts), (f"{name} time", time or []),
+                           (f"{name} compare", compare)):
         pattern = re.compile(re.escape(_begin(section)) + r"\n.*?" + re.escape(_end(section)), re.S)
+        if lines is None:
+            continue
         if pattern.search(text):
             body = "\n".join([_begin(section), *lines, _end(section)])
             text = pattern.sub(lambda _: body, text)
@@ -293,6 +301,42 @@ def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], v
         raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts', "
                            f"'{name} time') to write the results into")
     return written
+
+
+def compare_lines(results_3d: list[ClaimResult], results_2d: list[ClaimResult], point_lines: list[str],
+                  source: str) -> list[str]:
+    """The section "2D against 3D" of a results page: each statement's verdict in 2D and in 3D
+    side by side, which statements each mode alone reproduces, then the points' table
+    (:func:`hydrojam.paper.compare.comparison_lines` without its heading).
+
+    Parameters
+    ----------
+    results_3d, results_2d : list of ClaimResult
+        The claims checked on the 3D study and on its 2D peer.
+    point_lines : list of str
+        The report's section "2D against 3D" (Markdown lines).
+    source : str
+        The 2D study's folder, as given.
+
+    Returns
+    -------
+    list of str
+    """
+    two = {c.claim.id: c.verdict for c in results_2d}
+    three = {c.claim.id: c.verdict for c in results_3d}
+    ids = [cid for cid in _claim_ids(3) if cid in two or cid in three]
+    L = ["| statement | 2D | 3D |", "|---|---|---|"]
+    for cid in ids:
+        L.append(f"| {cid} | {two.get(cid, '— (3D only)' if cid.startswith('hw-') else '—')} | {three.get(cid, '—')} |")
+    only2 = [c for c in ids if two.get(c) == Verdict.AGREE and three.get(c) not in (None, Verdict.AGREE)]
+    only3 = [c for c in ids if three.get(c) == Verdict.AGREE and two.get(c) not in (None, Verdict.AGREE)]
+    both = [c for c in ids if two.get(c) == Verdict.AGREE and three.get(c) == Verdict.AGREE]
+    L += ["", f"Both reproduce: {', '.join(both) or 'none'}. 2D alone: {', '.join(only2) or 'none'}. "
+          f"3D alone: {', '.join(only3) or 'none'} (the 2D study in `{source}`).", ""]
+    body = list(point_lines)
+    while body and (not body[0].strip() or body[0].startswith("## ")):
+        body.pop(0)
+    return L + body
 
 
 def _kind(name: str) -> str:
