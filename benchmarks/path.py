@@ -289,10 +289,11 @@ def _write_markdown(path: str, rows: list[list[str]], workers: int, overrides: l
     Path(path).write_text(text, encoding="utf-8")
 
 
-def replace_section(page: str, name: str, text: str) -> str:
-    """``page`` with the lines between '<!-- path.py: NAME -->' and '<!-- /path.py: NAME -->'
-    replaced by ``text`` (the markers kept); ValueError naming the markers where either is missing."""
-    begin, end = f"<!-- path.py: {name} -->", f"<!-- /path.py: {name} -->"
+def replace_section(page: str, name: str, text: str, tag: str = "path.py") -> str:
+    """``page`` with the lines between '<!-- TAG: NAME -->' and '<!-- /TAG: NAME -->' (TAG the
+    benchmark's file name) replaced by ``text`` (the markers kept); ValueError naming the markers
+    where either is missing."""
+    begin, end = f"<!-- {tag}: {name} -->", f"<!-- /{tag}: {name} -->"
     i, j = page.find(begin), page.find(end)
     if i < 0 or j < i:
         raise ValueError(f"no section {begin} ... {end} in the page")

@@ -296,3 +296,42 @@ def test_the_model_check_counts_the_pairs_behind_a_deviation():
     assert pairs_accounting(10.0, devs, 0.5) is None and MOST_PAIRS == 3
     assert pairs_accounting(1.0, devs, 2.0) == 0
     assert [pair_move(0.5, d1) for d1 in (1.2, 0.3, 0.7)] == ["leaves dhat", "closes", "opens within dhat"]
+
+
+def _replicas_csv(out: Path, angles: list[float], state: str = "folded") -> None:
+    """A replica study's replicas.csv: one finished run per angle, the tip and curling index from it."""
+    out.mkdir(parents=True)
+    lines = ["replica,bending_angle_deg,tip_dx_mm,tip_dz_mm,curling_index,newton_iterations,wall_time_s,states,status"]
+    lines += [f"{k},{a},{-a / 1.5},{a / 3.0},{a / 200.0},900,600,{state},ok" for k, a in enumerate(angles)]
+    (out / "replicas.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def test_the_mesh_convergence_table_chooses_the_coarsest_size_within_the_finest_spread(tmp_path):
+    """``mesh.py``: a size qualifies where every metric's mean lies within the finest's mean ± 2 s,
+    s the larger standard deviation of the two; the coarsest such size is chosen, a coarser one
+    beyond it is not."""
+    import mesh as mesh_benchmark
+
+    _replicas_csv(tmp_path / "mesh-6", [130.0, 130.2])  # 10° off: beyond
+    _replicas_csv(tmp_path / "mesh-4", [121.0, 122.0, 123.0])  # mean 122, std 1: within 2 x 1 of 121
+    _replicas_csv(tmp_path / "mesh-2", [120.9, 121.1])
+    sizes = [mesh_benchmark.read_runs(tmp_path / f"mesh-{s}", float(s)) for s in (6, 4, 2)]
+    text, chosen = mesh_benchmark.convergence_table(sizes)
+    assert chosen == 4.0
+    rows = [line for line in text.splitlines() if line.startswith("| ") and not line.startswith("| mesh")]
+    assert [r.split(" | ")[0] for r in rows] == ["| 6", "| 4", "| 2"]
+    assert "**beyond**: θ [deg] +9.00 (within" not in rows[0] and "**beyond**" in rows[0]
+    assert "| 122.00 ± 1.00 |" in rows[1] and "**within**: θ [deg] +1.00 (within 2.00)" in rows[1]
+    assert rows[2].endswith("| the finest |")
+    # a state other than the finest's most common one is left out of the comparison
+    _replicas_csv(tmp_path / "mesh-3", [160.0], state="arc")
+    ok, notes = mesh_benchmark.qualifies(mesh_benchmark.read_runs(tmp_path / "mesh-3", 3.0), sizes[2])
+    assert not ok and notes == ["no run in the state folded"]
+    # the section of a page, written by the command over the folders (nothing run)
+    page = tmp_path / "page.md"
+    page.write_text("a\n<!-- mesh.py: m -->\n<!-- /mesh.py: m -->\nb\n", encoding="utf-8")
+    assert mesh_benchmark.main(["--sizes", "6", "4", "2", "--replicas", "2", "3", "2", "--root", str(tmp_path),
+                                "--report-only", "--markdown", str(page), "--section", "m"]) == 0
+    written = page.read_text(encoding="utf-8")
+    assert written.startswith("a\n<!-- mesh.py: m -->\nMeasured by `benchmarks/mesh.py --sizes 6 4 2 --replicas 2 3 2`")
+    assert "The coarsest mesh within the finest's spread: **4 mm**." in written and written.endswith("b\n")

@@ -46,8 +46,9 @@ def test_report(study_dir):
     assert f"hydrojam {__version__}" in text
     verdicts = [line.split(" | ")[3] for line in claims]
     assert all(v in ("**agree**", "**disagree**", "**undetermined**") for v in verdicts)
-    # the four temperature claims (295 K failed, 2 points left) and h-displacement (nothing in 10-12 mm)
-    assert verdicts.count("**undetermined**") == 5
+    # the four temperature claims (295 K failed, 2 points left); the quick h grid carries the
+    # 10 mm break point, so h-displacement is decided
+    assert verdicts.count("**undetermined**") == 4
     assert verdicts.count("**disagree**") == 2
 
 
@@ -123,7 +124,7 @@ def test_report_in_3d(study_dir, tmp_path):
                                 compare_source="out2d").read_text(encoding="utf-8")
     compare = _section(text, "## 2D against 3D")
     assert "| point | θ 2D [deg] | θ 3D [deg] |" in compare and "`out2d`" in compare
-    assert compare.count("\n| ") == 1 + 10  # the header and the 10 distinct designs of the quick study
+    assert compare.count("\n| ") == 1 + 11  # the header and the 11 distinct designs of the quick study
     # a 2D report has no such section
     text2 = preport.write_report(out, table, True, 60.0).read_text(encoding="utf-8")
     assert "## 2D against 3D" not in text2 and "plane strain" in _section(text2, "## What was run")

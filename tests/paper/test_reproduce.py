@@ -34,15 +34,14 @@ def test_reproduce_end_to_end_from_cached_points(tmp_path):
         (tmp_path / "points" / p.key / "point.json").write_text(json.dumps(record))
     seen = []
     table, report = reproduce(tmp_path, quick=True, on_point=lambda o, d, t: seen.append((d, t)))
-    assert seen[-1] == (10, 10) and len(table.rows) == 12
+    assert seen[-1] == (11, 11) and len(table.rows) == 13
     text = report.read_text(encoding="utf-8")
     assert report == tmp_path / "report.md"
     assert len(list((tmp_path / "figures").glob("*.png"))) == 6
     verdicts = {c.claim.id: c.verdict for c in pclaims.check_claims(table)}
-    assert verdicts == {c.id: ("undetermined" if c.sweep == "strain_limit_thickness" else "agree")
-                        for c in pclaims.paper_claims(2)}
-    assert "10 distinct points" in text and "compute time summed over points 10 min" in text
-    assert "(this run: 0 of the 10 points computed, the others reused" in text
+    assert verdicts == {c.id: "agree" for c in pclaims.paper_claims(2)}
+    assert "11 distinct points" in text and "compute time summed over points 11 min" in text
+    assert "(this run: 0 of the 11 points computed, the others reused" in text
     # the command line over the same cache: nothing to simulate, exit status 0, report rewritten
     from hydrojam.cli import main
 
@@ -169,10 +168,10 @@ def test_reproduce_3d_from_cached_points_with_the_2d_comparison(tmp_path):
     assert main(["reproduce", "--dimension", "3", "--quick", "-o", str(three), "--quiet",
                  "--compare-2d", str(two), "--write-results", str(page)]) == 0
     written = page.read_text(encoding="utf-8")
-    assert "Conditions: `hydrojam reproduce --dimension 3 --quick`" in written and "13 of 13 runs finished" in written
+    assert "Conditions: `hydrojam reproduce --dimension 3 --quick`" in written and "15 of 15 runs finished" in written
     assert "| strain_limit_width | 12 mm |" in written and "| paper-3d-quick | claims |" in written
     cost = written.split("<!-- reproduce: paper-3d-quick time -->")[1]
-    assert "| `hydrojam reproduce --dimension 3 --quick` | 13 of 13 | 900-900 (mean 900) | 10.0 min | 2.2 h |" in cost
+    assert "| `hydrojam reproduce --dimension 3 --quick` | 15 of 15 | 900-900 (mean 900) | 10.0 min | 2.5 h |" in cost
     assert "paper-3d-quick" in (three / "study.toml").read_text()
     assert len(list((three / "figures").glob("*.png"))) == 8
     text = (three / "report.md").read_text(encoding="utf-8")
@@ -180,16 +179,16 @@ def test_reproduce_3d_from_cached_points_with_the_2d_comparison(tmp_path):
     assert "**quick, 3D**" in text and "## 2D against 3D" in text
     rows = [line for line in text.split("## 2D against 3D")[1].split("## Model")[0].splitlines()
             if line.startswith("| ") and not line.startswith("| point")]
-    assert len(rows) == 10
+    assert len(rows) == 11
     assert sum("bends less in 3D (θ -10.0°" in line for line in rows) == 3  # the 2D temperature sweep only
-    assert sum("not run in 2D" in line for line in rows) == 7
+    assert sum("not run in 2D" in line for line in rows) == 8
     page = (three / "report.html").read_text(encoding="utf-8")  # the report as one page that opens offline
     assert not re.search(r'(src|href)="https?:', page)
     figures = sorted(p.name for p in (three / "figures").glob("*.png"))
     assert all(f"figures/{name}" in text for name in figures)  # the figures the Markdown names, inlined
     assert page.count('<img src="data:image/png;base64,') == len(figures) and "## 2D against 3D" not in page
     assert "<h2>2D against 3D (the same designs)</h2>" in page and "<h2>Final states in 3D</h2>" in page
-    assert len(re.findall(r'<div class="hj-scene" data-scene=', page)) == 13  # each of the 13 runs' final.vtu, once
+    assert len(re.findall(r'<div class="hj-scene" data-scene=', page)) == 15  # each of the 15 runs' final.vtu, once
 
 
 @pytest.mark.slow
@@ -228,7 +227,7 @@ def test_reproduce_report_only_writes_an_interim_report(tmp_path, monkeypatch, c
     study = pstudy.paper_study(quick=True)
     write_study(tmp_path / "study.toml", study)
     key = {(p.sweep, p.index): p.key for p in study.points()}
-    pl15, h12 = key[("particle_layers", 4)], key[("strain_limit_thickness", 2)]
+    pl15, h12 = key[("particle_layers", 4)], key[("strain_limit_thickness", 3)]
     _cache_points(tmp_path, study)
     h12_record = (tmp_path / "points" / h12 / "point.json").read_bytes()
     for k in (pl15, h12):
@@ -237,12 +236,12 @@ def test_reproduce_report_only_writes_an_interim_report(tmp_path, monkeypatch, c
         "step,s,bending_angle_deg,wall_time_s\n0,0.0,0.0,0.1\n1,0.5,40.0,600.0\n")
     monkeypatch.setattr(sweep_mod, "_local_cluster", lambda n: pytest.fail("a point was run"))
     assert main(["reproduce", "--quick", "-o", str(tmp_path), "--report-only"]) == 0
-    assert "10 distinct points (12 rows): 8 ok, 0 not converged, 0 failed, 2 not finished" in capsys.readouterr().err
+    assert "11 distinct points (13 rows): 9 ok, 0 not converged, 0 failed, 2 not finished" in capsys.readouterr().err
     assert not (tmp_path / "points" / pl15 / "point.json").exists()
     assert len(list((tmp_path / "figures").glob("*.png"))) == 6
     text = (tmp_path / "report.md").read_text(encoding="utf-8")
-    assert "8 converged, 0 not converged, 0 failed, **2 not finished**." in text
-    assert "**An interim report**: 2 of the 10 points are not finished" in text
+    assert "9 converged, 0 not converged, 0 failed, **2 not finished**." in text
+    assert "**An interim report**: 2 of the 11 points are not finished" in text
     assert "Nothing was run for this report (`--report-only`)" in text
     assert "| not finished: s = 0.500 reached (40.0 deg) |" in text
     assert "| not started |" in text
@@ -254,7 +253,7 @@ def test_reproduce_report_only_writes_an_interim_report(tmp_path, monkeypatch, c
     (tmp_path / "points" / h12 / "point.json").write_bytes(h12_record)
     assert main(["reproduce", "--quick", "-o", str(tmp_path), "--report-only"]) == 0
     text = (tmp_path / "report.md").read_text(encoding="utf-8")
-    assert ("**An interim report**: 1 of the 10 points is not finished (its row says where it stands); every "
+    assert ("**An interim report**: 1 of the 11 points is not finished (its row says where it stands); every "
             "statement of its sweeps is undetermined until it finishes.") in text
     assert "runs it on from its checkpoint and rewrites this report" in text
 

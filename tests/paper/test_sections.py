@@ -83,3 +83,51 @@ def test_the_cli_refuses_a_page_without_a_section_before_any_work(tmp_path, caps
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--write-results" in err and "no section" in err
     assert not out.exists() and page.read_text(encoding="utf-8") == "# nothing marked\n"
+
+
+SENSITIVITY_PAGE = """# Sensitivity
+
+<!-- reproduce: paper-quick sensitivity -->
+<!-- /reproduce: paper-quick sensitivity -->
+
+After.
+"""
+
+
+def test_the_table_of_verdict_against_choice_keeps_a_row_per_study(study_dir, tmp_path):
+    """The default's row and each --set study's row, each replaced by its own rerun, the default's
+    first; a point's states and each state's verdict beside the verdict on all runs; a page with only
+    this section takes a variant's results (check_page) and its own sections are not required."""
+    _, table = study_dir
+    rows = with_spread(table.rows, {"bending_angle_deg": 1.5, "tip_dx_mm": 0.5, "tip_dz_mm": 0.5, "curling_index": 0.01})
+    for r in rows:
+        r["states"] = "arc 3; folded 1"
+    replicated = Table(rows)
+    results = pclaims.check_claims(replicated)
+    page = tmp_path / "page.md"
+    page.write_text(SENSITIVITY_PAGE, encoding="utf-8")
+    variant = pstudy.study_name(True, 2, ["friction=0.3"])
+    psections.check_page(page, variant)
+    assert psections.write_sections(page, variant, ["t"], ["v"]) == []  # no section of its own: nothing, no error
+
+    def row(overrides, states):
+        return psections.sensitivity_row(replicated, 2, 4, overrides, states, results, ("abcdef0123",))
+
+    for overrides in (["friction=0.3"], [], ["friction=0.3"], ["clearance=0.2"]):
+        assert psections.write_sensitivity_row(page, pstudy.study_name(True, 2, overrides), 2,
+                                               row(overrides, _states(rows)))
+    part = page.read_text(encoding="utf-8").split("sensitivity -->")[1]
+    lines = [line for line in part.splitlines() if line.startswith("| ")]
+    ids = [c.id for c in pclaims.PAPER_CLAIMS if c.sweep != "strain_limit_width"]
+    assert lines[0] == "| model choice | runs | states | " + " | ".join(ids) + " | code |"
+    assert [line.split(" | ")[0] for line in lines[1:]] == ["| default", "| `clearance=0.2`", "| `friction=0.3`"]
+    default = lines[1].split(" | ")
+    assert len(default) == len(ids) + 4 and default[-1] == "`abcdef0` |"
+    assert "275 K: arc 3; folded 1" in default[2]
+    by_id = {r.claim.id: r for r in results}
+    for cid, text in zip(ids, default[3:-1]):
+        assert text.startswith(f"{by_id[cid].verdict}; arc: ") and ", folded: " in text
+    assert page.read_text(encoding="utf-8").endswith("\nAfter.\n")
+    # one state: the verdict alone
+    single = row([], {"arc": replicated}).split(" | ")
+    assert single[3] == str(by_id[ids[0]].verdict)

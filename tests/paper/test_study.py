@@ -15,7 +15,7 @@ def test_point_sets_full_and_quick():
                     "strain_limit_thickness": {"strain_limit_thickness": [4.0, 6.0, 8.0, 10.0, 12.0]}}
     assert quick == {"temperature": {"stimulus.temperature": [275.0, 285.0, 295.0]},
                      "particle_layers": {"particle_layers": [5, 7, 9, 11, 15, 19]},
-                     "strain_limit_thickness": {"strain_limit_thickness": [4.0, 8.0, 12.0]}}
+                     "strain_limit_thickness": {"strain_limit_thickness": [4.0, 8.0, 10.0, 12.0]}}
     assert sum(len(v) for s in full.values() for v in s.values()) == 25
     assert pstudy.paper_base(False) == default_design()
     assert pstudy.paper_base(True).mesh.size == pstudy.QUICK_MESH_SIZE == 4.0
@@ -35,9 +35,9 @@ def test_base_point_is_the_same_design_in_every_sweep(quick):
         assert apply_overrides(base, [f"{field}={at_base[0]!r}"]) == base
 
 
-@pytest.mark.parametrize("quick, distinct", [(False, 23), (True, 10)])
+@pytest.mark.parametrize("quick, distinct", [(False, 23), (True, 11)])
 def test_paper_study(quick, distinct):
-    """25 (12) points, 23 (10) distinct designs: the base point is one key in all three sweeps."""
+    """25 (13) points, 23 (11) distinct designs: the base point is one key in all three sweeps."""
     study_mod = pytest.importorskip("hydrojam.study.spec")
     study = pstudy.paper_study(quick)
     assert isinstance(study, study_mod.Study)
@@ -59,7 +59,7 @@ def _old_way(quick):
         base = apply_overrides(base, ["mesh.size=4.0"])
     vary = {"temperature": {"stimulus.temperature": [275.0, 285.0, 295.0] if quick else [275.0, 280.0, 285.0, 290.0, 295.0]},
             "particle_layers": {"particle_layers": [5, 7, 9, 11, 15, 19] if quick else list(range(5, 20))},
-            "strain_limit_thickness": {"strain_limit_thickness": [4.0, 8.0, 12.0] if quick else [4.0, 6.0, 8.0, 10.0, 12.0]}}
+            "strain_limit_thickness": {"strain_limit_thickness": [4.0, 8.0, 10.0, 12.0] if quick else [4.0, 6.0, 8.0, 10.0, 12.0]}}
     return Study(name="paper-quick" if quick else "paper", base=base,
                  sweeps=[SweepSpec(name=n, vary=v) for n, v in vary.items()])
 
@@ -75,7 +75,7 @@ def test_the_2d_study_is_unchanged_by_the_dimension(quick):
     assert pstudy.paper_base(quick, dimension=2) == pstudy.paper_base(quick)
 
 
-@pytest.mark.parametrize("quick, name, mesh, distinct", [(True, "paper-3d-quick", 4.0, 13), (False, "paper-3d", 2.0, 28)])
+@pytest.mark.parametrize("quick, name, mesh, distinct", [(True, "paper-3d-quick", 4.0, 15), (False, "paper-3d", 2.0, 28)])
 def test_the_3d_study(quick, name, mesh, distinct):
     """The 3D study: its own name, the 2D study's points on the same meshes (quick 4 mm, full
     2 mm), spheres in the half model, and cache keys that no 2D point shares; and the strip-width

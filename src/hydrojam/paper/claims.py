@@ -14,8 +14,8 @@ magnitude of the quantity (``Claim.tolerance``, written into the report):
 with tol = ANGLE_TOL x max|θ| for the bending angle and DISPLACEMENT_TOL x max|δ| for the tip
 displacements, which are more path dependent (docs/reproduce.md). Displacements are compared as
 magnitudes |δx|, |δz|, as the paper plots them. A range of the paper is checked between the first
-and last points run within it (the quick study's h = 4, 8, 12 mm checks "4 to 10 mm" from 4 to
-8 mm and cannot check "10 to 12 mm"). A claim disagrees if any part of its check does, else it is
+and last points run within it (a study without h = 10 mm would check "4 to 10 mm" from 4 to 8 mm and
+could not check "10 to 12 mm"). A claim disagrees if any part of its check does, else it is
 undetermined if any part is (an end point failed or did not converge, fewer than two points in a
 range), else it agrees. A claim whose sweep has a point not finished yet (a table written from
 a study in progress, ``reproduce --report-only``) is undetermined whatever its finished points

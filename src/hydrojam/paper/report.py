@@ -176,8 +176,7 @@ def _tolerance_text() -> list[str]:
         f"to exceed that of PL ≤ 9 by {CURLING_MARGIN:g} and the largest rise between neighbouring points "
         f"within PL 8-11.",
         "- A range of the paper (e.g. h from 4 to 10 mm) is checked between the first and the last point run "
-        "within it, and the summary says so where they are not the paper's end points (the quick study runs "
-        "h = 4, 8, 12 mm: 4 to 10 mm is checked from 4 to 8 mm, and 10 to 12 mm, with one point, cannot be). "
+        "within it, and the summary says so where they are not the paper's end points. "
         "A part of a check is *undetermined* where such an end point failed or did not converge, or fewer "
         "than two points lie in the range; other unusable points are skipped and named.",
         "- A claim *disagrees* if any part of its check does, else it is *undetermined* if any part is (for want "

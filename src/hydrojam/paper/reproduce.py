@@ -23,7 +23,8 @@ from hydrojam.paper.compare import read_2d_results
 from hydrojam.paper.figures import write_figures
 from hydrojam.paper.page import write_report_page
 from hydrojam.paper.report import write_report
-from hydrojam.paper.sections import check_page, results_lines, run_commits, time_lines, verdict_lines, write_sections
+from hydrojam.paper.sections import (check_page, results_lines, run_commits, sensitivity_row, time_lines,
+                                     verdict_lines, write_sections, write_sensitivity_row)
 from hydrojam.paper.study import paper_study
 from hydrojam.study.sweep import PointOutcome, run_sweep
 from hydrojam.study.table import SweepTable, state_tables
@@ -122,6 +123,8 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
         commits = run_commits(study, out)
         lines = results_lines(table, study.base, quick, replicas, workers, states, results, commits, overrides)
         cost = time_lines(table, study.base, quick, replicas, workers, commits, overrides)
+        row = sensitivity_row(table, dimension, replicas, overrides, states, results, commits)
         for page in results_pages:
             write_sections(page, study.name, lines, verdict_lines(results, study.name), cost)
+            write_sensitivity_row(page, study.name, dimension, row)
     return table, report

@@ -6,7 +6,10 @@ NAME the study's name (``paper-quick``, ``paper-3d-quick``, ...) for the table o
 name followed by `` verdicts`` for the count of its verdicts, or by `` time`` for what its runs
 cost. :func:`write_sections` replaces every such section of the study on a page (the table with a
 line of conditions: command, commits, mesh, runs a point, friction, workers) and leaves the rest
-of the page as it was.
+of the page as it was. The section ``KIND sensitivity`` (KIND the study's name without its model
+choices, ``paper-3d-quick``) is a table of verdict against model choice, a row per study of that
+kind: :func:`write_sensitivity_row` replaces the row of one study (``default`` or its ``--set``
+choices) and keeps the others'.
 Units: K, mm, degrees, minutes.
 """
 
@@ -22,15 +25,19 @@ from hydrojam._io import write_text_atomic
 from hydrojam.actuator.design import Design
 from hydrojam.actuator.provenance import source_provenance
 from hydrojam.paper._rows import cell, cell_pm, fmt_param, number, point_status, rows_of, sorted_by
-from hydrojam.paper.claims import ClaimResult, Verdict
-from hydrojam.paper.study import paper_sweeps, reproduce_command, study_name
+from hydrojam.paper.claims import PAPER_CLAIMS, ClaimResult, Verdict, check_claims
+from hydrojam.paper.study import VARIANT_SEPARATOR, paper_sweeps, reproduce_command, study_name
 from hydrojam.study.cache import PointStatus
 
-__all__ = ["SECTION_KINDS", "SectionError", "check_page", "results_lines", "run_commits", "time_lines", "verdict_lines",
-           "write_sections"]
+__all__ = ["SECTION_KINDS", "SectionError", "check_page", "results_lines", "run_commits", "sensitivity_row",
+           "time_lines", "verdict_lines", "write_sections", "write_sensitivity_row"]
 
 #: the sections a study can write on a page: "" (its points), " verdicts", " time"
 SECTION_KINDS = ("", " verdicts", " time")
+#: the section of verdict against model choice, after the study's kind ("paper-3d-quick sensitivity")
+SENSITIVITY = " sensitivity"
+#: the first cell of the row of the study under the default model choices
+DEFAULT_CHOICE = "default"
 
 
 class SectionError(ValueError):
@@ -235,9 +242,9 @@ def check_page(page: str | os.PathLike, name: str) -> None:
         text = path.read_text(encoding="utf-8")
     except OSError as err:
         raise SectionError(f"{path}: cannot be read ({err.strerror or err})") from None
-    if not any(_begin(name + kind) in text for kind in SECTION_KINDS):
+    if not any(_begin(name + kind) in text for kind in SECTION_KINDS) and _begin(_kind(name) + SENSITIVITY) not in text:
         raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts', "
-                           f"'{name} time') to write the results into")
+                           f"'{name} time', '{_kind(name)}{SENSITIVITY}') to write the results into")
     if not os.access(path.parent, os.W_OK) or not os.access(path, os.W_OK):
         raise SectionError(f"{path}: cannot be written (permission denied)")
 
@@ -280,8 +287,118 @@ def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], v
             body = "\n".join([_begin(section), *lines, _end(section)])
             text = pattern.sub(lambda _: body, text)
             written.append(section)
-    if not written:
+    if written:
+        write_text_atomic(path, text)
+    elif _begin(_kind(name) + SENSITIVITY) not in text:
         raise SectionError(f"{path}: no section {_begin(name)} ... {_end(name)} (nor '{name} verdicts', "
                            f"'{name} time') to write the results into")
-    write_text_atomic(path, text)
     return written
+
+
+def _kind(name: str) -> str:
+    """The study's kind: its name without its model choices ("paper-3d-quick--friction_0_3" -> "paper-3d-quick")."""
+    return name.split(VARIANT_SEPARATOR, 1)[0]
+
+
+def _claim_ids(dimension: int) -> list[str]:
+    """The claims of the sweeps a study of ``dimension`` runs, in the paper's order."""
+    return [c.id for c in PAPER_CLAIMS if any(sw.name == c.sweep for sw in paper_sweeps(dimension))]
+
+
+def _sensitivity_header(dimension: int) -> list[str]:
+    ids = _claim_ids(dimension)
+    return ["| model choice | runs | states | " + " | ".join(ids) + " | code |",
+            "|---|---:|---|" + "---|" * len(ids) + "---|"]
+
+
+def sensitivity_row(table, dimension: int, replicas: int, overrides: Sequence[str], states: dict,
+                    results: list[ClaimResult], run_commits: tuple[str, ...] = ()) -> str:
+    """One row of the table of verdict against model choice (Markdown): the study's choices
+    (``default`` for none), its runs, each point's states, every claim's verdict on all runs, with
+    each state's verdict beside it where the runs fall into more than one state ("disagree; arc:
+    agree, folded: undetermined"), and the code that computed the runs. A claim of a sweep the
+    study did not run is "—".
+
+    Parameters
+    ----------
+    table : SweepTable
+        The study's results.
+    dimension : {2, 3}
+        The study's dimension.
+    replicas : int
+        Runs a point.
+    overrides : sequence of str
+        The study's model choices (``--set``), empty for the default.
+    states : dict of str to SweepTable
+        State -> the table of its runs alone (:func:`hydrojam.study.table.state_tables`).
+    results : list of ClaimResult
+        The claims checked on ``table``.
+    run_commits : tuple of str, optional
+        The commits of the code that computed the runs.
+
+    Returns
+    -------
+    str
+    """
+    by_id = {c.claim.id: c for c in results}
+    per_state = {n: {c.claim.id: c for c in check_claims(t, dimension)} for n, t in states.items()} \
+        if len(states) > 1 else {}
+    points = _distinct_points(table, dimension)
+    done = sum(_finished_runs(r, replicas) for r in points.values())
+    cells, seen = [], set()
+    for sw in paper_sweeps(dimension):
+        for r in sorted_by(rows_of(table, sw.name), sw.field):
+            if r.get("key") not in seen and r.get("states"):
+                seen.add(r.get("key"))
+                cells.append(f"{fmt_param(number(r.get(sw.field)), sw.unit)}: {r.get('states')}")
+    verdicts = []
+    for cid in _claim_ids(dimension):
+        res = by_id.get(cid)
+        if res is None:
+            verdicts.append("—")
+            continue
+        extra = [f"{n}: {per_state[n][cid].verdict}" for n in per_state if cid in per_state[n]]
+        verdicts.append(str(res.verdict) + ("; " + ", ".join(extra) if extra else ""))
+    code = ", ".join(f"`{c[:7]}`" for c in run_commits) or "—"
+    choice = ", ".join(f"`{o}`" for o in overrides) or DEFAULT_CHOICE
+    return (f"| {choice} | {done} of {len(points) * replicas} | {'; '.join(cells) or '—'} | "
+            + " | ".join(verdicts) + f" | {code} |")
+
+
+def write_sensitivity_row(page: str | os.PathLike, name: str, dimension: int, row: str) -> bool:
+    """Put ``row`` (:func:`sensitivity_row`) into the section ``KIND sensitivity`` of ``page``
+    (atomically), replacing the row of the same model choice and keeping the others, the default's
+    first; False where the page has no such section.
+
+    Parameters
+    ----------
+    page : str or os.PathLike
+        A Markdown page.
+    name : str
+        The study's name (its kind and model choices).
+    dimension : {2, 3}
+        The study's dimension (the table's claims).
+    row : str
+        The study's row.
+
+    Returns
+    -------
+    bool
+        Whether the section was written.
+    """
+    path = Path(page)
+    text = path.read_text(encoding="utf-8")
+    section = _kind(name) + SENSITIVITY
+    pattern = re.compile(re.escape(_begin(section)) + r"\n(.*?)" + re.escape(_end(section)), re.S)
+    found = pattern.search(text)
+    if not found:
+        return False
+    header = _sensitivity_header(dimension)
+    rows = {}  # the first cell (the model choice) -> its row
+    for line in [*found.group(1).splitlines(), row]:
+        if line.startswith("| ") and line != header[0]:
+            rows[line.split(" | ", 1)[0]] = line
+    ordered = sorted(rows, key=lambda k: (k != "| " + DEFAULT_CHOICE, k))
+    body = "\n".join([_begin(section), *header, *(rows[k] for k in ordered), _end(section)])
+    write_text_atomic(path, pattern.sub(lambda _: body, text))
+    return True

@@ -3,7 +3,8 @@
 A swelling particle column is multistable (docs/replicas.md, "States"): in 3D the column either
 stays one arc or folds, tens of degrees apart, and a mean over both describes neither. A run's
 state is read from a geometric signature of its final state, the metric ``column_folds``
-(:func:`hydrojam.actuator.metrics.column_folds`): "arc" with no fold, "folded" with one or more.
+(:func:`hydrojam.actuator.metrics.column_folds`): "arc" with no fold, "folded" with one,
+"multi-folded" with more (a column folded back on itself, which bends far less again).
 A run without the metric (a record written before it existed) has no state (None).
 """
 
@@ -16,16 +17,16 @@ from hydrojam._io import finite_number
 __all__ = ["STATES", "state_counts", "state_of", "states_text"]
 
 #: the states a run can be in, in the order tables list them
-STATES = ("arc", "folded")
+STATES = ("arc", "folded", "multi-folded")
 
 
 def state_of(metrics: dict | None) -> str | None:
-    """The state of a run from its metrics: "arc" (``column_folds`` 0), "folded" (1 or more),
-    None where the metric is missing."""
+    """The state of a run from its metrics: "arc" (``column_folds`` 0), "folded" (1),
+    "multi-folded" (2 or more), None where the metric is missing."""
     folds = finite_number((metrics or {}).get("column_folds"))
     if folds is None:
         return None
-    return STATES[0] if folds < 0.5 else STATES[1]
+    return STATES[min(int(round(folds)), 2)] if folds >= 0 else None
 
 
 def state_counts(states: Sequence[str | None]) -> dict[str, int]:

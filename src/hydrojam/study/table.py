@@ -202,7 +202,7 @@ def build_table(study: Study, records: dict[str, dict], state: str | None = None
     unfinished, its metrics those of the replicas finished so far. ``states`` names the state of
     every finished run (:mod:`hydrojam.study.states`): one state, or each with its runs.
 
-    With ``state`` ("arc", "folded"), the table of that state alone: each point's statistics over
+    With ``state`` ("arc", "folded", "multi-folded"), the table of that state alone: each point's statistics over
     its replicas in that state, and a point with none failed ("no replica in state ...").
     """
     varied = study.varied_fields()
