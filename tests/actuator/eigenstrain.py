@@ -62,3 +62,22 @@ def solve_eigenstrain(mesh, groups: dict[str, tuple[np.ndarray, float]], clamp: 
     u = np.zeros(3 * n)
     u[free] = spla.spsolve(K[free][:, free].tocsc(), f[free])
     return u.reshape(n, 3)
+
+
+def cell_volume(mesh, group: str) -> float:
+    """The volume [mm^3] of the cells of ``group``, by the elements' own quadrature."""
+    cells = mesh.cells[mesh.cell_groups[group]]
+    return float(physical_gradients(element_for_meshio_type(mesh.cell_type), mesh.points[cells])[1].sum())
+
+
+def rigid_rotation(points: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The small rotation vector (3,) [rad] of the least-squares rigid motion u = a + w x (X - c)
+    of the nodes at ``points`` (n, 3) [mm] displaced by ``u`` (n, 3) [mm]."""
+    r = points - points.mean(axis=0)
+    A = np.zeros((len(r), 3, 6))
+    A[:, :, :3] = np.eye(3)
+    zero = np.zeros(len(r))
+    A[:, :, 3:] = np.stack([np.stack([zero, r[:, 2], -r[:, 1]], axis=1),
+                            np.stack([-r[:, 2], zero, r[:, 0]], axis=1),
+                            np.stack([r[:, 1], -r[:, 0], zero], axis=1)], axis=1)
+    return np.linalg.lstsq(A.reshape(-1, 6), u.ravel(), rcond=None)[0][3:]
