@@ -315,9 +315,10 @@ def sensitivity_row(table, dimension: int, replicas: int, overrides: Sequence[st
                     results: list[ClaimResult], run_commits: tuple[str, ...] = ()) -> str:
     """One row of the table of verdict against model choice (Markdown): the study's choices
     (``default`` for none), its runs, each point's states, every claim's verdict on all runs, with
-    each state's verdict beside it where the runs fall into more than one state ("disagree; arc:
-    agree, folded: undetermined"), and the code that computed the runs. A claim of a sweep the
-    study did not run is "—".
+    each state's verdict beside it where the runs fall into more than one state and that state's
+    runs decide one ("disagree; arc: agree"), and the code that computed the runs. A point is
+    named by the paper's symbol, "hw" for the strip's width ("T 285 K: arc 2, folded 1"). A claim
+    of a sweep the study did not run is "—".
 
     Parameters
     ----------
@@ -350,14 +351,17 @@ def sensitivity_row(table, dimension: int, replicas: int, overrides: Sequence[st
         for r in sorted_by(rows_of(table, sw.name), sw.field):
             if r.get("key") not in seen and r.get("states"):
                 seen.add(r.get("key"))
-                cells.append(f"{fmt_param(number(r.get(sw.field)), sw.unit)}: {r.get('states')}")
+                label = sw.symbol + ("w" if sw.reading == "width" else "")
+                cells.append(f"{label} {fmt_param(number(r.get(sw.field)), sw.unit)}: "
+                             + str(r.get("states")).replace("; ", ", "))
     verdicts = []
     for cid in _claim_ids(dimension):
         res = by_id.get(cid)
         if res is None:
             verdicts.append("—")
             continue
-        extra = [f"{n}: {per_state[n][cid].verdict}" for n in per_state if cid in per_state[n]]
+        extra = [f"{n}: {per_state[n][cid].verdict}" for n in per_state
+                 if cid in per_state[n] and not str(per_state[n][cid].verdict).startswith("undetermined")]
         verdicts.append(str(res.verdict) + ("; " + ", ".join(extra) if extra else ""))
     code = ", ".join(f"`{c[:7]}`" for c in run_commits) or "—"
     choice = ", ".join(f"`{o}`" for o in overrides) or DEFAULT_CHOICE
