@@ -23,6 +23,8 @@ from hydrojam.study.table import METRIC_COLUMNS, SweepTable
 __all__ = ["DPI", "PLOT_METRICS", "check_plot_metrics", "plot_sweep", "write_sweep_figures"]
 
 DPI = 150
+#: the metrics that are directions [deg], drawn unwrapped (no jump of 360 deg between neighbours)
+ANGLE_METRICS = ("bending_plane_deg",)
 #: the metrics ``--plot`` can draw: the table's numeric metric columns
 PLOT_METRICS: tuple[str, ...] = tuple(k for k, kind in METRIC_COLUMNS.items() if kind in (int, float))
 
@@ -48,7 +50,8 @@ def plot_sweep(rows: Sequence[dict], field: str, metrics: Sequence[str], path: s
                title: str) -> None:
     """Plot each of ``metrics`` against ``field`` (one panel each) from a sweep's table rows.
 
-    Points in the field's order, joined by a line; a not-converged point hollow, a failed or
+    Points in the field's order, joined by a line (a direction of :data:`ANGLE_METRICS` unwrapped,
+    its mean within (-180, 180]); a not-converged point hollow, a failed or
     unfinished one left out and named under the figure. Rows of replicated points (with
     ``<metric>_std``, ``_min``, ``_max``) are drawn at their mean with error bars of ± one
     standard deviation and a band over the replicas' range.
@@ -86,6 +89,10 @@ def plot_sweep(rows: Sequence[dict], field: str, metrics: Sequence[str], path: s
             lo.append(_number(r.get(f"{name}_min")) if _number(r.get(f"{name}_min")) is not None else v)
             hi.append(_number(r.get(f"{name}_max")) if _number(r.get(f"{name}_max")) is not None else v)
         xs, ys, hollow = np.array(xs), np.array(ys), np.array(hollow, dtype=bool)
+        if name in ANGLE_METRICS and len(ys):  # a direction: no jump of 360 deg between neighbours
+            shift = np.degrees(np.unwrap(np.radians(ys))) - ys
+            shift -= 360.0 * np.round((ys + shift).mean() / 360.0)
+            ys, lo, hi = ys + shift, np.add(lo, shift), np.add(hi, shift)
         colour = f"C{k}"
         ax.plot(xs, ys, "-", color=colour, lw=1.2)
         if any(err):
