@@ -105,3 +105,17 @@ def test_a_helical_strip_twists_as_the_beam_model_bounds():
     # coupling; the strip bonded across its 6 mm width carries some across it as well
     assert np.sign(plus[2]) == np.sign(beam[2]) == 1.0
     assert 0.0 < plus[2] / beam[2] <= 1.0 + (SIZE / GEOMETRY["cavity_width"]) ** 2
+
+
+def test_the_helix_example_study_winds_one_strip_at_four_angles():
+    """examples/helix_study.toml (docs/chambers.md, "Twist against the angle"): every point the
+    whole actuator in 3D with an 8 mm strip, at 0, 15, 30 and 45 deg."""
+    from pathlib import Path
+
+    from hydrojam.study.spec import load_study
+
+    study = load_study(Path(__file__).parents[2] / "examples" / "helix_study.toml")
+    points = list(study.points())
+    assert [p.design.helix_angle_deg for p in points] == [0.0, 15.0, 30.0, 45.0]
+    for p in points:
+        assert p.design.dimension == 3 and not p.design.mesh.symmetry and p.design.strain_limit_width == 8.0
