@@ -564,6 +564,7 @@ def sweep(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar and no summary."),
     replicas: Optional[int] = typer.Option(None, "--replicas", help="Replicas per point (the table holds their mean and spread); default: the base design's replicas.count."),
     table_only: bool = typer.Option(False, "--table-only", help="Run nothing: the table of the points finished in OUT so far, the others as not finished (a study in progress)."),
+    plot: Optional[str] = typer.Option(None, "--plot", help="Also draw these metrics (comma-separated, e.g. bending_angle_deg,twist_deg) against each sweep's varied field: OUT/figures/<sweep>.png."),
 ) -> None:
     """Run every point of a study in parallel (dask), cached in OUT/points/, and write the table.
 
@@ -577,6 +578,7 @@ def sweep(
     from hydrojam.study.sweep import run_sweep
 
     replicas = _check_replicas(replicas)
+    metrics = _check_plot(plot)
     if table_only:
         _check_nothing_runs("--table-only", workers, scheduler, out)
     else:
@@ -592,11 +594,36 @@ def sweep(
             study = study.with_replicas(replicas)
         except DesignError as err:
             raise InputError(f"--replicas: {err}") from None
+
+    def figures(table):
+        if metrics:
+            from hydrojam.study.plots import write_sweep_figures
+
+            for path in write_sweep_figures(study, table, out, metrics):
+                if not quiet:
+                    Console(stderr=True).print(f"figure: {path}", soft_wrap=True)
+        return table
+
     if table_only:
-        _interim_report(lambda: run_sweep(study, out, run=False), out, quiet)
+        _interim_report(lambda: figures(run_sweep(study, out, run=False)), out, quiet)
         return
     _run_with_progress(lambda on_point, on_running: run_sweep(study, out, workers=workers, scheduler=scheduler,
-                                                              on_point=on_point, on_running=on_running), out, quiet)
+                                                              on_point=on_point, on_running=on_running), out, quiet,
+                       after=(lambda: figures(run_sweep(study, out, run=False))) if metrics else None)
+
+
+def _check_plot(plot: Optional[str]) -> list[str]:
+    """The metrics of ``sweep --plot`` (none without it); InputError naming --plot for a bad one."""
+    if plot is None:
+        return []
+    from hydrojam.study.plots import check_plot_metrics
+
+    names = [n.strip() for n in plot.split(",") if n.strip()]
+    try:
+        check_plot_metrics(names)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    return names
 
 
 #: seconds between two lines on the running points where stderr is not a terminal (a log file)

@@ -362,6 +362,14 @@ class Design(BaseModel):
         description="3D only: the strain-limit layer's width along y, a strip centred on the -x face (the paper's "
         "other reading of h); omitted: the face's full width cavity_depth + 2 side_wall_thickness [mm]",
     )
+    strain_limit_helix_deg: float | None = Field(
+        None,
+        gt=-90,
+        lt=90,
+        description="3D full model only: the strip wound round the chamber at this angle to the axis, a helix "
+        "(positive: from the clamp toward the free end it runs toward +y on the -x face; docs/chambers.md, "
+        "\"A helical strip\"); omitted or 0: the straight strip [deg]",
+    )
     chamber_wall_thickness: float | None = Field(
         None, gt=0, le=MAX_WALL_MM,
         description="with chambers: the shared wall between neighbouring chambers; omitted: side_wall_thickness [mm]",
@@ -592,6 +600,47 @@ class Design(BaseModel):
                 f"chamber_wall_thickness: too thin for mesh.size {_g(h)} mm: must be >= {_g(2 * MIN_WALL_PER_MESH * h)} "
                 f"mm (it is meshed in two halves, each >= mesh.size/4), else its elements are slivers (got {_g(wall)} mm)")
 
+    @property
+    def helix_angle_deg(self) -> float:
+        """The strain-limit strip's angle to the axis [deg]: ``strain_limit_helix_deg``, 0 when omitted."""
+        return 0.0 if self.strain_limit_helix_deg is None else float(self.strain_limit_helix_deg)
+
+    def max_helix_angle_deg(self) -> float:
+        """The largest |strain_limit_helix_deg| [deg] at which the strip still fits across the -x face:
+        a strip of width w at angle a spans w / cos(a) across the axis, at most the face's width
+        cavity_depth + 2 side_wall_thickness (0 for a strip as wide as the face)."""
+        face = self.resolved_cavity_depth + 2.0 * self.side_wall_thickness
+        w = face if self.strain_limit_width is None else self.strain_limit_width
+        return math.degrees(math.acos(min(w / face, 1.0)))
+
+    def _check_helix(self) -> None:
+        """The checks of a helical strip (a nonzero ``strain_limit_helix_deg``)."""
+        a = self.helix_angle_deg
+        if a == 0.0:
+            return
+        got = f"got strain_limit_helix_deg {_g(a)}"
+        if self.dimension != 3:
+            raise ValueError(f"strain_limit_helix_deg: nonzero only with dimension = 3 (2D is plane strain: a strip "
+                             f"along the depth cannot wind round the chamber; {got} with dimension {self.dimension})")
+        if self.chambers is not None:
+            raise ValueError(f"strain_limit_helix_deg: nonzero not with chambers (their strain-limit layer spans its "
+                             f"face; {got})")
+        if self.mesh.symmetry:
+            raise ValueError(f"strain_limit_helix_deg: nonzero only with mesh.symmetry = false (a helical strip has "
+                             f"no symmetry plane y = 0: the whole actuator is meshed; {got})")
+        face = self.resolved_cavity_depth + 2.0 * self.side_wall_thickness
+        w = face if self.strain_limit_width is None else self.strain_limit_width
+        span = w / math.cos(math.radians(a))
+        if self.strain_limit_width is None:
+            raise ValueError(f"strain_limit_helix_deg: nonzero needs a strain_limit_width narrower than the -x face's "
+                             f"{_g(face)} mm (a strip as wide as the face cannot be wound round it; {got})")
+        if span > face * (1.0 + _REL_TOL):
+            raise ValueError(
+                f"strain_limit_helix_deg: must be in [-{_g(self.max_helix_angle_deg())}, "
+                f"{_g(self.max_helix_angle_deg())}] deg for a strip {_g(w)} mm wide: at {_g(a)} deg it spans "
+                f"{_g(span)} mm across the axis, more than the -x face's {_g(face)} mm, and would wrap over the "
+                f"face's edges onto itself (set a narrower strain_limit_width)")
+
     @model_validator(mode="after")
     def _check_consistency(self) -> Design:
         for name, value in self.hydrogel.model_dump().items():
@@ -626,6 +675,7 @@ class Design(BaseModel):
                     f"strain_limit_width: must be in (0, {_g(face)}] mm, the -x face's width cavity_depth + "
                     f"2 side_wall_thickness (got {_g(self.strain_limit_width)} mm)"
                 )
+        self._check_helix()
         if not self.mesh.symmetry and self.dimension != 3:
             raise ValueError(
                 f"mesh.symmetry: false only with dimension = 3 (2D has no depth to cut; got dimension {self.dimension})"
@@ -860,7 +910,8 @@ _DERIVED = {
 #: an example for optional keys left out (written commented out)
 _EXAMPLES = {"schedule": "[[0, 300], [60, 275], [7200, 275]]",
              "friction_slip": "0.0008  # 1% of dhat = 0.8 clearance, at the default clearance",
-             "strain_limit_width": "8.0  # 3D only: a strip 8 mm wide centred on the -x face"}
+             "strain_limit_width": "8.0  # 3D only: a strip 8 mm wide centred on the -x face",
+             "strain_limit_helix_deg": "30.0  # 3D full model, with strain_limit_width: the strip wound at 30 deg"}
 
 
 def toml_value(value) -> str:

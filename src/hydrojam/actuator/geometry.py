@@ -3,6 +3,7 @@ particles drawn with gmsh through :mod:`hydrojam.fem.meshing`, and meshed. Lengt
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import gmsh
@@ -351,7 +352,8 @@ def jitter_particles(mesh: Mesh, design: Design) -> Mesh:
 
 def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, side_wall: float,
                 end_wall: float, strain_limit: float, centres, radius: float, size: float,
-                symmetry: bool = True, order: int = 2, strain_limit_width: float | None = None) -> Mesh:
+                symmetry: bool = True, order: int = 2, strain_limit_width: float | None = None,
+                strain_limit_helix_deg: float = 0.0) -> Mesh:
     """The actuator in 3D (docs/actuator.md, "3D"), quadratic tetrahedra, lengths in mm.
 
     Cavity [-w/2, w/2] x [-D/2, D/2] x [-t1 - cavity_length, -t1] (w width, D depth); membrane:
@@ -365,6 +367,15 @@ def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, 
     ``symmetry``: only the half y >= 0 (particles are half spheres, the cut faces lie on y = 0);
     otherwise the whole actuator, drawn as two halves glued on y = 0, so that the mid-plane
     y = 0 is a surface of nodes in every body (the centreline and the section figure).
+
+    ``strain_limit_helix_deg`` a (nonzero; the whole actuator only, with ``strain_limit_width``
+    b): the strip wound round the chamber, a helix (:func:`helix_twist_rad`). It is the part of
+    the sleeve of thickness h round the membrane's outer faces swept by the half-plane band
+    {x <= 0, |y| <= b / (2 cos a)} at z = 0, turned about the z axis by an angle proportional to
+    -z, so that on the -x face's mid-surface (x = -w/2 - t0 - h/2) the strip's centre line runs
+    at a to the axis and the strip is b wide across its own direction; a > 0 turns it toward +y
+    from the clamp to the free end. The band is drawn as a loft through its sections at least
+    every :data:`HELIX_SECTION_DEG` of turn. It is not split through its thickness.
 
     Cell groups "membrane", "strain_limit_layer", "particle0", ...; facet groups "clamp"
     (z = 0), "free_end" (z = -L), "cavity" (the cavity's wall, without cut faces),
@@ -389,8 +400,14 @@ def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, 
         outer = occ.addBox(-x_out, 0.0, -length, 2 * x_out, y_out, length)
         cavity = occ.addBox(-w / 2, 0.0, -t1 - lc, w, D / 2, lc)
         (membrane, _) = occ.cut([(3, outer)], [(3, cavity)])
-        walls = membrane + [(3, occ.addBox(-x_out - h, 0.0, -length, h / 2, y_strip, length)),
-                            (3, occ.addBox(-x_out - h / 2, 0.0, -length, h / 2, y_strip, length))]
+        helix = float(strain_limit_helix_deg) != 0.0
+        if helix and (symmetry or strain_limit_width is None):
+            raise ValueError("a helical strip needs the whole actuator (symmetry False) and a strain_limit_width")
+        if helix:
+            walls = list(membrane)
+        else:
+            walls = membrane + [(3, occ.addBox(-x_out - h, 0.0, -length, h / 2, y_strip, length)),
+                                (3, occ.addBox(-x_out - h / 2, 0.0, -length, h / 2, y_strip, length))]
         particles = []
         for c in centres:
             ball = occ.addSphere(c[0], c[1], c[2], radius)
@@ -406,10 +423,17 @@ def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, 
                 occ.mirror(other, 0.0, 1.0, 0.0, 0.0)
                 (glued, _) = occ.fragment(part, other)
                 particles[k] = glued
-        (frag, _) = occ.fragment(walls, [])  # bonded walls: conforming interfaces
+        strip = []
+        if helix:
+            strip = _helical_strip(occ, x_out, y_out, h, length, float(strain_limit_width),
+                                   float(strain_limit_helix_deg))
+        (frag, pieces) = occ.fragment(walls + strip, [])  # bonded walls: conforming interfaces
         occ.synchronize()
         body = [t for d, t in frag if d == 3]
-        sll = [t for t in body if bounding_box(3, t)[1, 0] <= -x_out + tol]
+        if helix:
+            sll = sorted({t for piece in pieces[len(walls):] for d, t in piece if d == 3})
+        else:
+            sll = [t for t in body if bounding_box(3, t)[1, 0] <= -x_out + tol]
         mem = [t for t in body if t not in sll]
         particle_tags = [[t for d, t in part if d == 3] for part in particles]
 
@@ -454,6 +478,42 @@ def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, 
         return generate(3, order)
 
 
+#: the helical strip's loft has a section at least every this many degrees of turn [deg]
+HELIX_SECTION_DEG = 10.0
+
+
+def helix_twist_rad(x_out: float, strain_limit: float, length: float, helix_deg: float) -> float:
+    """The turn [rad] of the helical strip from the clamp to the free end, about +z: -L tan(a) / r,
+    r = x_out + h/2 the -x face's mid-surface distance from the axis (lengths in mm, a in deg);
+    negative for a > 0 (the strip runs toward +y on the -x face)."""
+    return -float(length) * math.tan(math.radians(helix_deg)) / (float(x_out) + float(strain_limit) / 2)
+
+
+def _helical_strip(occ, x_out: float, y_out: float, h: float, length: float, width: float, helix_deg: float):
+    """The helical strip's volumes (dimTags) in the open OCC model: the sleeve of thickness ``h``
+    round the box |x| <= x_out, |y| <= y_out (drawn as its halves y >= 0 and y <= 0, so that y = 0
+    is a surface of nodes) cut by the twisted band of :func:`actuator_3d`."""
+    span = width / math.cos(math.radians(helix_deg))
+    turn = helix_twist_rad(x_out, h, length, helix_deg)
+    reach = 2.0 * (x_out + y_out + 2.0 * h)  # beyond the sleeve's far corner
+    n = max(2, math.ceil(abs(math.degrees(turn)) / HELIX_SECTION_DEG)) + 1
+    wires = []
+    for i in range(n):
+        z, phi = -length * i / (n - 1), turn * i / (n - 1)
+        c, s = math.cos(phi), math.sin(phi)
+        corners = [(-reach, -span / 2), (0.0, -span / 2), (0.0, span / 2), (-reach, span / 2)]
+        points = [occ.addPoint(c * x - s * y, s * x + c * y, z) for x, y in corners]
+        wires.append(occ.addWire([occ.addLine(points[k], points[(k + 1) % 4]) for k in range(4)]))
+    band = [v for v in occ.addThruSections(wires, makeSolid=True, makeRuled=False) if v[0] == 3]
+    outer = occ.addBox(-x_out - h, 0.0, -length, 2 * (x_out + h), y_out + h, length)
+    inner = occ.addBox(-x_out, 0.0, -length, 2 * x_out, y_out, length)
+    (upper, _) = occ.cut([(3, outer)], [(3, inner)])
+    lower = occ.copy(upper)
+    occ.mirror(lower, 0.0, 1.0, 0.0, 0.0)
+    (strip, _) = occ.intersect(upper + lower, band)
+    return [v for v in strip if v[0] == 3]
+
+
 def mesh_design_3d(design: Design) -> Mesh:
     """The quadratic-tetrahedron mesh of a 3D design (groups as in :func:`actuator_3d`); the half
     model y >= 0 unless ``mesh.symmetry`` is false. Particle centres from :func:`particle_centres`
@@ -463,4 +523,5 @@ def mesh_design_3d(design: Design) -> Mesh:
         design.side_wall_thickness, design.end_wall_thickness, design.strain_limit_thickness,
         particle_centres(design), design.particle_diameter / 2, design.mesh.size,
         symmetry=design.mesh.symmetry, order=2, strain_limit_width=design.strain_limit_width,
+        strain_limit_helix_deg=design.helix_angle_deg,
     )

@@ -177,10 +177,13 @@ class ActuatorModel:
 
 def centreline_x(design: Design) -> float:
     """x [mm] of the strain-limit layer's mid-line (mid-surface in 3D), the centreline of the
-    metrics; it runs from the clamp at z = 0 to the free end at z = -length."""
+    metrics; it runs from the clamp at z = 0 to the free end at z = -length. With a helical strip
+    (which leaves the plane y = 0): the membrane's -x face, x = -cavity_width/2 - t0."""
     design = design.resolved()
     if design.chambers is not None:  # the shared wall's mid-line
         return 0.0
+    if design.helix_angle_deg != 0.0:
+        return -design.resolved_cavity_width / 2 - design.side_wall_thickness
     return -design.resolved_cavity_width / 2 - design.side_wall_thickness - design.strain_limit_thickness / 2
 
 
@@ -211,7 +214,7 @@ def outer_faces(mesh: Mesh) -> np.ndarray:
 
 def _centreline(mesh: Mesh, design: Design) -> np.ndarray:
     x_mid = centreline_x(design)
-    if design.chambers is not None:  # the shared wall's mid-line, through the end walls
+    if design.chambers is not None or design.helix_angle_deg != 0.0:  # through the end walls / the membrane
         nodes = np.unique(mesh.cells[np.concatenate([mesh.cell_groups[g] for g in (MEMBRANE, STRAIN_LIMIT_LAYER)
                                                      if g in mesh.cell_groups])])
     else:

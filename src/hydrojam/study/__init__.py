@@ -1,4 +1,4 @@
-"""Studies: study files, parallel cached sweeps (dask) and their table, replicas of a design and
+"""Studies: study files, parallel cached sweeps (dask), their table and figures, replicas of a design and
 their spread, and where an output folder stands. It maps a simulation over designs and never
 reaches inside one. The names below are the public API, loaded on first use.
 """
@@ -17,5 +17,6 @@ _PUBLIC = {
     "hydrojam.study.spread": ['Spread', 'spread'],
     "hydrojam.study.status": ['folder_status', 'FolderStatus', 'RunStatus', 'StatusError', 'current_state'],
     "hydrojam.study.snapshot": ['write_snapshots', 'Snapshot'],
+    "hydrojam.study.plots": ['write_sweep_figures', 'plot_sweep', 'check_plot_metrics', 'PLOT_METRICS'],
 }
 __all__, __getattr__, __dir__ = lazy_api(__name__, _PUBLIC, globals())

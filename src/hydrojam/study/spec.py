@@ -79,7 +79,8 @@ def design_key(design: Design) -> str:
     Of the ``replicas`` table only what changes the run counts: nothing for replica 0 (the design
     as drawn, the key it had before replicas existed), seed, jitter and index for another; of
     ``mesh.symmetry`` nothing in 2D; of ``friction_slip``, ``strain_limit_width`` and the multi-chamber
-    fields (``chambers``, ``chamber_wall_thickness``, ``strain_limit_position``) nothing when omitted.
+    fields (``chambers``, ``chamber_wall_thickness``, ``strain_limit_position``) nothing when omitted;
+    of ``strain_limit_helix_deg`` nothing when omitted or 0 (the straight strip).
 
     Parameters
     ----------
@@ -99,6 +100,8 @@ def design_key(design: Design) -> str:
                      "chambers"):  # omitted: the key it had before the field
         if dumped.get(optional) is None:
             dumped.pop(optional, None)
+    if not dumped.get("strain_limit_helix_deg"):  # omitted or 0: the straight strip, its key unchanged
+        dumped.pop("strain_limit_helix_deg", None)
     if replicas["index"] > 0:
         dumped["replica"] = {k: replicas[k] for k in ("seed", "jitter", "index")}
     data = {"cache_format": CACHE_FORMAT, "design": dumped}
