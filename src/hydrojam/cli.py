@@ -1212,16 +1212,43 @@ def snapshot(
                       f"{m['tip_dz_mm']:.1f}) mm: {shot.vtu}, {shot.png}", soft_wrap=True, highlight=False)
 
 
+def _flat(data: dict, prefix: str = "") -> dict:
+    """A nested design dump as dotted leaf fields ("membrane.shear_modulus": 0.046)."""
+    out = {}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            out.update(_flat(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
+
+
 def _paper_commands(out: Path, name: str, replicas: int) -> str | None:
     """For the folder of a paper study in progress (``reproduce``'s, by its study's name, with
-    ``replicas`` per point): the commands that write its interim report and go on with it; None
-    for another study."""
-    from hydrojam.paper.study import reproduce_command, study_kind
+    ``replicas`` per point): the commands that write its interim report and go on with it, with
+    the study's ``--sweep`` subset and its model choices (``--set``, read as the fields where its
+    base design differs from the paper's); None for another study."""
+    from hydrojam.paper.study import paper_base, paper_sweeps, reproduce_command, study_kind
+    from hydrojam.study.spec import load_study
 
     kind = study_kind(name)
     if kind is None:
         return None
-    command = reproduce_command(*kind, replicas)
+    quick, dimension = kind
+    overrides, sweeps = [], ""
+    try:
+        study = load_study(out / "study.toml")
+    except (OSError, ValueError):
+        study = None
+    if study is not None:
+        own = _flat(study.base.model_dump(exclude={"replicas"}))
+        paper = _flat(paper_base(quick, dimension=dimension).model_dump(exclude={"replicas"}))
+        overrides = [f"{k}={own[k]!r}" if isinstance(own[k], str) else f"{k}={own[k]}"
+                     for k in own if k in paper and own[k] != paper[k]]
+        names = [sw.name for sw in study.sweeps]
+        if names != [sw.name for sw in paper_sweeps(dimension)]:
+            sweeps = "".join(f" --sweep {n}" for n in names)
+    command = reproduce_command(quick, dimension, replicas, overrides) + sweeps
     return f"report so far: {command} -o {out} --report-only\ngo on: {command} -o {out}"
 
 

@@ -259,3 +259,19 @@ def test_one_run_at_a_time_writes_a_study_folder(study_folder):
     table = run_sweep(study, out, workers=1, point_fn=point_fn, progress_interval_s=0.05)
     assert [r["status"] for r in table.rows] == ["ok"] * 5  # the four not finished ran (in the workers)
     assert not (out / LOCK_FILE).exists() and os.getpid() != pid
+
+
+def test_status_of_a_paper_study_variant_names_its_choices_and_sweeps(tmp_path, capsys):
+    """A study run under model choices (``--set``) and a subset of sweeps: the commands `status`
+    prints rerun that study, not the default's (its choices read from its base design)."""
+    from hydrojam.paper.study import paper_study
+
+    out = tmp_path / "variant"
+    overrides = ["friction=0.3", "membrane.shear_modulus=0.046"]
+    study = paper_study(True, replicas=2, dimension=3, overrides=overrides, sweeps=["temperature"])
+    write_study(out / "study.toml", study)
+    assert main(["status", str(out)]) == 0
+    text = capsys.readouterr().out
+    command = ("hydrojam reproduce --dimension 3 --quick --replicas 2 --set friction=0.3 "
+               "--set membrane.shear_modulus=0.046 --sweep temperature")
+    assert f"go on: {command} -o {out}\n" in text
