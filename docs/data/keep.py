@@ -4,7 +4,8 @@ Usage: python docs/data/keep.py OUT DEST
 
 For every point of the study in OUT (OUT/study.toml) whose OUT/points/<key>/point.json says "ok"
 or "not_converged", copy point.json, metrics.json, history.csv, centreline.csv and design.toml
-into DEST/<label>-<key>/, OUT/study.toml into DEST/, and docs/data/restore.sh into DEST/. The label names the point's first sweep
+into DEST/<label>-<key>/, OUT/study.toml into DEST/, and a ``restore.sh`` (:data:`RESTORE`, which runs
+docs/data/restore.sh on DEST) into DEST/. The label names the point's first sweep
 and value (T285, H4, W12, PL07) and, past replica 0, the replica (T285r2). Large files
 (final.vtu, final.png, checkpoint.npz) are left out. ``restore.sh`` beside the records puts them
 back into a study folder, where the sweep loads them instead of running them again.
@@ -18,6 +19,13 @@ import sys
 from pathlib import Path
 
 from hydrojam.study.spec import load_study
+
+#: DEST/restore.sh: docs/data/restore.sh on the records beside it
+RESTORE = """#!/bin/sh
+# Put this folder's kept records back into a study folder OUT: restore.sh OUT (docs/data/restore.sh).
+here=$(cd "$(dirname "$0")" && pwd)
+exec sh "$here/../restore.sh" --records "$here" "$@"
+"""
 
 FILES = ("point.json", "metrics.json", "history.csv", "centreline.csv", "design.toml")
 PREFIX = {"stimulus.temperature": "T", "particle_layers": "PL", "strain_limit_thickness": "H",
@@ -37,7 +45,7 @@ def keep(out: Path, dest: Path) -> list[str]:
     study = load_study(out / "study.toml")
     dest.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(out / "study.toml", dest / "study.toml")
-    shutil.copyfile(Path(__file__).with_name("restore.sh"), dest / "restore.sh")
+    (dest / "restore.sh").write_text(RESTORE, encoding="utf-8")
     kept, seen = [], set()
     for point in study.points():
         src = out / "points" / point.key

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import pytest
 
 from hydrojam.actuator.design import apply_overrides, default_design
@@ -159,7 +161,10 @@ def test_the_kept_3d_records_give_the_report_again(tmp_path):
 
     data, kept, code = _kept_3d_study()
     assert kept == code
-    assert (data / "restore.sh").read_text() == (data.parent / "restore.sh").read_text()  # keep.py's copy
+    sys.path.insert(0, str(data.parent))
+    import keep
+
+    assert (data / "restore.sh").read_text() == keep.RESTORE  # keep.py's, calling docs/data/restore.sh
     n_kept = len([f for f in data.iterdir() if f.is_dir()])
     out = tmp_path / "out"
     for _ in range(2):
