@@ -3,7 +3,7 @@ on a local dask cluster, from an empty output folder.
 
 Run:  .venv/bin/python benchmarks/reproduce.py [--full] [--workers N] [-o OUT]
 
-Default: the quick study (10 distinct designs, mesh size 4 mm; the `make demo` run). ``--full``
+Default: the quick study (11 distinct designs, mesh size 4 mm). ``--full``
 runs the full study (23 designs at the default 2 mm mesh: hours on 2 cores). Prints, per point,
 its wall time, Newton iterations, load steps and the share of its time in elastic terms, contact
 and linear solves, then the sweep's wall time, the compute time summed over points and the
