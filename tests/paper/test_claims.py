@@ -196,3 +196,18 @@ def test_a_point_not_finished_leaves_the_claim_open_and_says_what_the_others_rea
     rows[-1] = row("particle_layers", "particle_layers", 19, None, None, None, status="unfinished")
     res = {r.claim.id: r for r in pclaims.check_claims(rows)}
     assert res["PL-dx"].verdict == "undetermined" and "|δx| at 19: not finished" in res["PL-dx"].summary
+
+
+def test_a_state_is_checked_over_the_points_where_it_occurs():
+    """A state's table (one row a point, a point without a run in that state marked "no replica in
+    state"): the claims are checked over the points the state reached, the summary naming that
+    part of the paper's range; counted as failed, the same point would leave them undetermined."""
+    from hydrojam.study.table import NOT_IN_STATE
+
+    rows = temperature_rows()
+    rows[0] = dict(rows[0], status="failed", error=f"{NOT_IN_STATE} arc", bending_angle_deg=None,
+                   tip_dx_mm=None, tip_dz_mm=None)
+    results = {r.claim.id: r for r in pclaims.check_state_claims(rows)}
+    assert results["T-angle"].verdict == "agree"
+    assert "the paper's 275 K to 295 K checked on the points run, 280 K to 295 K" in results["T-angle"].summary
+    assert {r.claim.id: r.verdict for r in pclaims.check_claims(rows)}["T-angle"] == "undetermined"

@@ -125,9 +125,10 @@ def test_the_table_of_verdict_against_choice_keeps_a_row_per_study(study_dir, tm
     assert len(default) == len(ids) + 4 and default[-1] == "`abcdef0` |"
     assert "T 275 K: arc 3, folded 1; T 285 K: " in default[2] and "; h 12 mm: arc 3, folded 1" in default[2]
     by_id = {r.claim.id: r for r in results}
-    per_state = {n: {r.claim.id: r.verdict for r in pclaims.check_claims(t)} for n, t in _states(rows).items()}
+    per_state = {n: {r.claim.id: r for r in pclaims.check_state_claims(t)} for n, t in _states(rows).items()}
     for cid, text in zip(ids, default[3:-1]):  # each state's verdict where its runs decide one
-        decided = [f"{n}: {v[cid]}" for n, v in per_state.items() if not str(v[cid]).startswith("undetermined")]
+        decided = [f"{n}: {v[cid].verdict}" + (" (part of the range)" if "checked on the points run" in v[cid].summary else "")
+                   for n, v in per_state.items() if not str(v[cid].verdict).startswith("undetermined")]
         assert text == str(by_id[cid].verdict) + ("; " + ", ".join(decided) if decided else "")
     assert any("; arc: " in text for text in default[3:-1])
     assert page.read_text(encoding="utf-8").endswith("\nAfter.\n")

@@ -45,6 +45,7 @@ from hydrojam.actuator.metrics import metric
 from hydrojam.paper._rows import fmt_param, number, point_status, rows_of
 from hydrojam.paper.study import PaperSweep, paper_sweep, paper_sweeps
 from hydrojam.study.cache import PointStatus
+from hydrojam.study.table import NOT_IN_STATE
 
 __all__ = [
     "ANGLE_TOL",
@@ -61,6 +62,7 @@ __all__ = [
     "Trend",
     "check_claim",
     "check_claims",
+    "check_state_claims",
     "paper_claims",
 ]
 
@@ -317,6 +319,28 @@ def check_claims(table, dimension: int = 2) -> list[ClaimResult]:
         In the order of PAPER_CLAIMS.
     """
     return [check_claim(claim, table) for claim in paper_claims(dimension)]
+
+
+def check_state_claims(table, dimension: int = 2) -> list[ClaimResult]:
+    """Every claim checked on one state's runs alone (a table of
+    :func:`hydrojam.study.table.state_tables`): the points none of whose runs reached the state
+    are left out, not counted as failed, so a range of the paper is checked over the part of it
+    where the state occurs ("checked on the points run, 285 K to 295 K" in the summary), as for
+    any point not run.
+
+    Parameters
+    ----------
+    table : SweepTable or list of dict
+        One state's table.
+    dimension : {2, 3}, optional
+        The study's dimension.
+
+    Returns
+    -------
+    list of ClaimResult
+    """
+    rows = table if isinstance(table, Sequence) else table.rows
+    return check_claims([r for r in rows if not str(r.get("error") or "").startswith(NOT_IN_STATE)], dimension)
 
 
 def check_claim(claim: Claim, table) -> ClaimResult:

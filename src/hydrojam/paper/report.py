@@ -22,6 +22,7 @@ from hydrojam.paper.claims import (
     paper_claims,
     Verdict,
     check_claims,
+    check_state_claims,
 )
 from hydrojam.paper.compare import comparison_lines
 from hydrojam.paper.figures import figure_names, state_figure_name
@@ -127,7 +128,8 @@ def _states_lines(table, states: dict, sweeps, results) -> list[str]:
          "layer of particles beside the one before it instead of beyond it; the metric `column_folds`, "
          "docs/replicas.md). A mean over both describes neither, so each state is given apart: its runs and "
          "θ (mean ± standard deviation over its runs), and below, every statement checked on each state's "
-         "runs alone (a point with no run in that state leaves its parts undetermined).", ""]
+         "runs alone, over the points where the state occurs (a summary ending \"checked on the points run, a to b\" "
+         "names the part of the paper's range that state covers).", ""]
     names = list(states)
     L += ["| sweep | point | " + " | ".join(f"{n}: runs, θ [deg]" for n in names) + " |",
           "|---|---:|" + "---:|" * len(names)]
@@ -143,7 +145,7 @@ def _states_lines(table, states: dict, sweeps, results) -> list[str]:
             L.append(f"| {sw.name} | {fmt_param(number(r.get(sw.field)), sw.unit)} | " + " | ".join(cells) + " |")
     L += ["", "| # | all runs | " + " | ".join(f"{n} runs only" for n in names) + " |",
           "|---|---|" + "---|" * len(names)]
-    per_state = {n: {c.claim.id: c for c in check_claims(t, _dim_of(sweeps))} for n, t in states.items()}
+    per_state = {n: {c.claim.id: c for c in check_state_claims(t, _dim_of(sweeps))} for n, t in states.items()}
     for c in results:
         L.append(f"| {c.claim.id} | **{c.verdict}** | "
                  + " | ".join(f"**{per_state[n][c.claim.id].verdict}**: {_md(per_state[n][c.claim.id].summary)}"

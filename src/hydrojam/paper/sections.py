@@ -25,7 +25,7 @@ from hydrojam._io import write_text_atomic
 from hydrojam.actuator.design import Design
 from hydrojam.actuator.provenance import source_provenance
 from hydrojam.paper._rows import cell, cell_pm, fmt_param, number, point_status, rows_of, sorted_by
-from hydrojam.paper.claims import PAPER_CLAIMS, ClaimResult, Verdict, check_claims
+from hydrojam.paper.claims import PAPER_CLAIMS, ClaimResult, Verdict, check_state_claims
 from hydrojam.paper.study import VARIANT_SEPARATOR, paper_sweeps, reproduce_command, study_name
 from hydrojam.study.cache import PointStatus
 
@@ -339,6 +339,10 @@ def compare_lines(results_3d: list[ClaimResult], results_2d: list[ClaimResult], 
     return L + body
 
 
+#: a claim's summary checked on part of the paper's range, and how a table cell says so
+_PARTIAL_MARK, _PARTIAL = "checked on the points run", "part of the range"
+
+
 def _kind(name: str) -> str:
     """The study's kind: its name without its model choices ("paper-3d-quick--friction_0_3" -> "paper-3d-quick")."""
     return name.split(VARIANT_SEPARATOR, 1)[0]
@@ -386,7 +390,7 @@ def sensitivity_row(table, dimension: int, replicas: int, overrides: Sequence[st
     str
     """
     by_id = {c.claim.id: c for c in results}
-    per_state = {n: {c.claim.id: c for c in check_claims(t, dimension)} for n, t in states.items()} \
+    per_state = {n: {c.claim.id: c for c in check_state_claims(t, dimension)} for n, t in states.items()} \
         if len(states) > 1 else {}
     points = _distinct_points(table, dimension)
     done = sum(_finished_runs(r, replicas) for r in points.values())
@@ -404,7 +408,8 @@ def sensitivity_row(table, dimension: int, replicas: int, overrides: Sequence[st
         if res is None:
             verdicts.append("—")
             continue
-        extra = [f"{n}: {per_state[n][cid].verdict}" for n in per_state
+        extra = [f"{n}: {per_state[n][cid].verdict}" + (f" ({_PARTIAL})" if _PARTIAL_MARK in per_state[n][cid].summary else "")
+                 for n in per_state
                  if cid in per_state[n] and not str(per_state[n][cid].verdict).startswith("undetermined")]
         verdicts.append(str(res.verdict) + ("; " + ", ".join(extra) if extra else ""))
     code = ", ".join(f"`{c[:7]}`" for c in run_commits) or "—"

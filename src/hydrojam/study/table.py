@@ -48,6 +48,7 @@ _REPLICA_TAIL: dict[str, type] = {"replicas": int, "replicas_used": int, "replic
 
 __all__ = [
     "METRIC_COLUMNS",
+    "NOT_IN_STATE",
     "SPREAD_METRICS",
     "SweepTable",
     "TABLE_RUN_FIELDS",
@@ -186,6 +187,10 @@ def _walk(design: Design, path: str) -> Any:
     return value
 
 
+#: the error of a state table's row for a point none of whose replicas reached that state
+NOT_IN_STATE = "no replica in state"
+
+
 def build_table(study: Study, records: dict[str, dict], state: str | None = None) -> SweepTable:
     """The table of a study from its runs' outcome records (point.json), keyed by design key:
     one row per (sweep, point).
@@ -219,7 +224,7 @@ def build_table(study: Study, records: dict[str, dict], state: str | None = None
         counts = state_counts([state_of(r.get("metrics")) for r in recs if r.get("status") in FINISHED])
         if state is not None:
             kept = [(q, r) for q, r in zip(points, recs) if state_of(r.get("metrics")) == state]
-            recs = [r for _, r in kept] or [{"status": PointStatus.FAILED, "error": f"no replica in state {state}"}]
+            recs = [r for _, r in kept] or [{"status": PointStatus.FAILED, "error": f"{NOT_IN_STATE} {state}"}]
             points = [q for q, _ in kept] or points[:1]
         row = _point_row(p, varied)
         row.update(_aggregate(recs, [q.replica for q in points], replicated))
