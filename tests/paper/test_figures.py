@@ -182,3 +182,23 @@ def test_a_state_no_run_of_a_sweep_reached_gets_no_figure(tmp_path):
     assert not stale.exists()
     written = pfigures.write_figures(tmp_path, main, {"arc": main, "multi-folded": none})
     assert not any("_shapes_" in p.name for p in written) and not (tmp_path / "figures/temperature_shapes_arc.png").exists()
+
+
+def test_a_replicated_point_is_drawn_in_the_state_most_of_its_runs_reached(tmp_path):
+    """Replica 0 folded, replicas 1 and 2 arcs: the picture draws replica 1 (the first arc); a tie
+    keeps replica 0, and so does a row whose runs' states cannot be read."""
+    import json
+
+    from hydrojam.paper._rows import drawn_row
+
+    for k, folds in enumerate((1, 0, 0, 1)):
+        (tmp_path / f"points/r{k}").mkdir(parents=True)
+        (tmp_path / f"points/r{k}/metrics.json").write_text(json.dumps({"column_folds": folds}))
+    row = {"point_dir": "points/r0", "replica_dirs": "points/r0;points/r1;points/r2"}
+    assert drawn_row(tmp_path, row)["point_dir"] == "points/r1"
+    tie = {"point_dir": "points/r0", "replica_dirs": "points/r0;points/r1;points/r2;points/r3"}
+    assert drawn_row(tmp_path, tie)["point_dir"] == "points/r0"
+    unread = {"point_dir": "points/x0", "replica_dirs": "points/x0;points/x1"}
+    assert drawn_row(tmp_path, unread) is unread
+    single = {"point_dir": "points/r2"}
+    assert drawn_row(tmp_path, single) is single

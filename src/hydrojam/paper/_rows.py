@@ -11,6 +11,7 @@ from pathlib import Path
 
 from hydrojam._io import finite_number
 from hydrojam.study.cache import ROW_STATUSES, PointStatus
+from hydrojam.study.states import state_of
 from hydrojam.study.table import SweepTable
 
 
@@ -89,3 +90,26 @@ def drawn_angle(out: str | os.PathLike, row: dict) -> float | None:
         return number(metrics.get("bending_angle_deg"))
     except (OSError, ValueError, AttributeError):
         return None
+
+
+def drawn_row(out: str | os.PathLike, row: dict) -> dict:
+    """The row as its pictures draw it: for a point of several runs, ``point_dir`` set to its
+    first run in the state most of its runs reached (replica 0's where they tie, or where no
+    run's state can be read), so a shapes panel shows the common state, not a rarer one that
+    replica 0 happened to reach. Other rows are returned as they are."""
+    dirs = [d for d in str(row.get("replica_dirs") or "").split(";") if d]
+    if len(dirs) < 2:
+        return row
+    states = []
+    for d in dirs:
+        try:
+            metrics = json.loads((Path(out) / d / "metrics.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            metrics = None
+        states.append(state_of(metrics if isinstance(metrics, dict) else None))
+    counts = {s: states.count(s) for s in states if s is not None}
+    if not counts:
+        return row
+    most = max(counts.values())
+    common = states[0] if counts.get(states[0]) == most else next(s for s in states if counts.get(s) == most)
+    return dict(row, point_dir=dirs[states.index(common)])

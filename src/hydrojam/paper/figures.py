@@ -21,7 +21,7 @@ from hydrojam.actuator.metrics import centreline_points
 from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY, centreline_x
 from hydrojam.actuator.plots import mid_section
 from hydrojam.fem.elements import straight_pieces
-from hydrojam.paper._rows import (drawn_angle, fmt_param, number, point_status, rows_of, runs_of, sorted_by,
+from hydrojam.paper._rows import (drawn_angle, drawn_row, fmt_param, number, point_status, rows_of, runs_of, sorted_by,
                                   without_result)
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
 from hydrojam.study.cache import PointStatus
@@ -548,7 +548,7 @@ def write_figures(out: str | os.PathLike, table, states: dict | None = None) -> 
         if not rows:
             continue
         shapes, trends = (out / name for name in figure_names(sw))
-        plot_shapes(out, rows, sw.field, shapes)
+        plot_shapes(out, [drawn_row(out, r) for r in rows], sw.field, shapes)
         plot_trends(rows, sw.field, trends, sw.label, sw.unit)
         written += [shapes, trends]
         by_state = {state: rows_of(t, sw.name) for state, t in (states or {}).items()}

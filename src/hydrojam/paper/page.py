@@ -13,7 +13,7 @@ import meshio
 from hydrojam._html import markdown_html, page_html
 from hydrojam._io import write_text_atomic
 from hydrojam.actuator import state_view
-from hydrojam.paper._rows import drawn_angle, number, runs_of
+from hydrojam.paper._rows import drawn_angle, drawn_row, number, runs_of
 from hydrojam.study.table import SweepTable
 
 __all__ = ["write_report_page"]
@@ -23,7 +23,7 @@ def _final_views(out: Path, table: SweepTable) -> list[str]:
     """One 3D view per point folder of ``table`` whose ``final.vtu`` holds a 3D (tetra10) state,
     in table order; points without one (unfinished, failed, restored records) are left out."""
     views, seen = [], set()
-    for row in table.rows:
+    for row in (drawn_row(out, r) for r in table.rows):
         pdir = row.get("point_dir")
         if not pdir or pdir in seen or not (out / pdir / "final.vtu").is_file():
             continue
