@@ -184,6 +184,60 @@ def actuator_2d_chambers(design: Design, order: int = 2) -> Mesh:
         return generate(2, order)
 
 
+def _group_3d(body: list[int], sll: list[int], particles: list, cavities: list[tuple[float, float]], D: float,
+              lc: float, t1: float, length: float, tol: float, symmetry: bool, order: int) -> Mesh:
+    """The cell and facet groups of a synchronised 3D actuator (the walls' volumes ``body``, of
+    which ``sll`` the strain-limit layer's; ``particles`` each particle's gmsh dim-tags), then its
+    mesh: cells membrane, strain_limit_layer (where ``sll``), particle<k>; facets clamp (z = 0),
+    free_end (z = -``length``), cavity (the wall faces inside a cavity: x within one of
+    ``cavities``' ranges, |y| <= D/2, z in [-t1 - lc, -t1]), particle<k>_boundary, and symmetry
+    (the cut faces on y = 0, half model) or mid_plane (the interior faces on y = 0, whole model).
+    Lengths in mm; ``tol`` the geometric tolerance of the face tests."""
+    mem = [t for t in body if t not in sll]
+    particle_tags = [[t for d, t in part if d == 3] for part in particles]
+
+    def faces_of(volumes, combined=True):
+        return [t for _, t in gmsh.model.getBoundary([(3, v) for v in volumes], combined=combined, oriented=False)]
+
+    def on_plane(t, axis, value):
+        bb = bounding_box(2, t)
+        return abs(bb[0, axis] - value) < tol and abs(bb[1, axis] - value) < tol
+
+    wall_faces = faces_of(body)
+    clamp = [t for t in wall_faces if on_plane(t, 2, 0.0)]
+    free_end = [t for t in wall_faces if on_plane(t, 2, -length)]
+    cut = [t for t in wall_faces if on_plane(t, 1, 0.0)]
+    cavity_faces = []
+    for t in wall_faces:
+        bb = bounding_box(2, t)
+        if t not in cut and bb[0, 1] >= -D / 2 - tol and bb[1, 1] <= D / 2 + tol \
+                and bb[0, 2] >= -t1 - lc - tol and bb[1, 2] <= -t1 + tol \
+                and any(bb[0, 0] >= x0 - tol and bb[1, 0] <= x1 + tol for x0, x1 in cavities):
+            cavity_faces.append(t)
+    cells = {MEMBRANE: mem}
+    if sll:
+        cells[STRAIN_LIMIT_LAYER] = sll
+    facets = {"clamp": clamp, "free_end": free_end, "cavity": cavity_faces}
+    plane_faces = list(cut)
+    for k, tags in enumerate(particle_tags):
+        cells[f"particle{k}"] = tags
+        surface = faces_of(tags)
+        flat = [t for t in surface if on_plane(t, 1, 0.0)]
+        facets[f"particle{k}_boundary"] = [t for t in surface if t not in flat]
+        plane_faces += flat
+    if symmetry:
+        facets["symmetry"] = plane_faces
+    else:  # interior faces on y = 0: shared by the two halves of a body
+        inner = set(faces_of(body, combined=False)) - set(wall_faces)
+        plane_faces = [t for t in inner if on_plane(t, 1, 0.0)]
+        for tags in particle_tags:
+            plane_faces += [t for t in set(faces_of(tags, combined=False)) - set(faces_of(tags))
+                            if on_plane(t, 1, 0.0)]
+        facets["mid_plane"] = plane_faces
+    add_groups(3, cells, facets)
+    return generate(3, order)
+
+
 def actuator_3d_chambers(design: Design, order: int = 2) -> Mesh:
     """The two-chamber actuator of :func:`actuator_2d_chambers` in 3D, quadratic tetrahedra, lengths
     in mm: every body extruded over the depth (cavities D = ``resolved_cavity_depth``, walls
@@ -247,50 +301,7 @@ def actuator_3d_chambers(design: Design, order: int = 2) -> Mesh:
             return where == "middle" and bb[0, 0] >= -half - tol and bb[1, 0] <= half + tol
 
         sll = [t for t in body if is_sll(t)]
-        mem = [t for t in body if t not in sll]
-        particle_tags = [[t for d, t in part if d == 3] for part in particles]
-
-        def faces_of(volumes, combined=True):
-            return [t for _, t in gmsh.model.getBoundary([(3, v) for v in volumes], combined=combined,
-                                                          oriented=False)]
-
-        def on_plane(t, axis, value):
-            bb = bounding_box(2, t)
-            return abs(bb[0, axis] - value) < tol and abs(bb[1, axis] - value) < tol
-
-        wall_faces = faces_of(body)
-        clamp = [t for t in wall_faces if on_plane(t, 2, 0.0)]
-        free_end = [t for t in wall_faces if on_plane(t, 2, -length)]
-        cut = [t for t in wall_faces if on_plane(t, 1, 0.0)]
-        cavity_faces = []
-        for t in wall_faces:
-            bb = bounding_box(2, t)
-            if t not in cut and bb[0, 1] >= -D / 2 - tol and bb[1, 1] <= D / 2 + tol \
-                    and bb[0, 2] >= -t1 - lc - tol and bb[1, 2] <= -t1 + tol and any(
-                        bb[0, 0] >= x0 - tol and bb[1, 0] <= x1 + tol for x0, x1 in ((a0, a1), (b0, b1))):
-                cavity_faces.append(t)
-        cells = {MEMBRANE: mem}
-        if sll:
-            cells[STRAIN_LIMIT_LAYER] = sll
-        facets = {"clamp": clamp, "free_end": free_end, "cavity": cavity_faces}
-        plane_faces = list(cut)
-        for k, tags in enumerate(particle_tags):
-            cells[f"particle{k}"] = tags
-            surface = faces_of(tags)
-            flat = [t for t in surface if on_plane(t, 1, 0.0)]
-            facets[f"particle{k}_boundary"] = [t for t in surface if t not in flat]
-            plane_faces += flat
-        if symmetry:
-            facets["symmetry"] = plane_faces
-        else:
-            inner = set(faces_of(body, combined=False)) - set(wall_faces)
-            plane_faces = [t for t in inner if on_plane(t, 1, 0.0)]
-            for tags in particle_tags:
-                plane_faces += [t for t in set(faces_of(tags, combined=False)) - set(faces_of(tags))
-                                if on_plane(t, 1, 0.0)]
-            facets["mid_plane"] = plane_faces
-        add_groups(3, cells, facets)
-        return generate(3, order)
+        return _group_3d(body, sll, particles, [(a0, a1), (b0, b1)], D, lc, t1, length, tol, symmetry, order)
 
 
 def mesh_design(design: Design) -> Mesh:
@@ -434,48 +445,7 @@ def actuator_3d(cavity_width: float, cavity_depth: float, cavity_length: float, 
             sll = sorted({t for piece in pieces[len(walls):] for d, t in piece if d == 3})
         else:
             sll = [t for t in body if bounding_box(3, t)[1, 0] <= -x_out + tol]
-        mem = [t for t in body if t not in sll]
-        particle_tags = [[t for d, t in part if d == 3] for part in particles]
-
-        def faces_of(volumes, combined=True):
-            return [t for _, t in gmsh.model.getBoundary([(3, v) for v in volumes], combined=combined,
-                                                          oriented=False)]
-
-        def on_plane(t, axis, value):
-            bb = bounding_box(2, t)
-            return abs(bb[0, axis] - value) < tol and abs(bb[1, axis] - value) < tol
-
-        wall_faces = faces_of(body)
-        clamp = [t for t in wall_faces if on_plane(t, 2, 0.0)]
-        free_end = [t for t in wall_faces if on_plane(t, 2, -length)]
-        cut = [t for t in wall_faces if on_plane(t, 1, 0.0)]
-        cavity_faces = []
-        for t in wall_faces:
-            bb = bounding_box(2, t)
-            if t not in cut and bb[0, 0] >= -w / 2 - tol and bb[1, 0] <= w / 2 + tol \
-                    and bb[0, 1] >= -D / 2 - tol and bb[1, 1] <= D / 2 + tol \
-                    and bb[0, 2] >= -t1 - lc - tol and bb[1, 2] <= -t1 + tol:
-                cavity_faces.append(t)
-        cells = {MEMBRANE: mem, STRAIN_LIMIT_LAYER: sll}
-        facets = {"clamp": clamp, "free_end": free_end, "cavity": cavity_faces}
-        plane_faces = list(cut)
-        for k, tags in enumerate(particle_tags):
-            cells[f"particle{k}"] = tags
-            surface = faces_of(tags)
-            flat = [t for t in surface if on_plane(t, 1, 0.0)]
-            facets[f"particle{k}_boundary"] = [t for t in surface if t not in flat]
-            plane_faces += flat
-        if symmetry:
-            facets["symmetry"] = plane_faces
-        else:  # interior faces on y = 0: shared by the two halves of a body
-            inner = set(faces_of(body, combined=False)) - set(wall_faces)
-            plane_faces = [t for t in inner if on_plane(t, 1, 0.0)]
-            for tags in particle_tags:
-                plane_faces += [t for t in set(faces_of(tags, combined=False)) - set(faces_of(tags))
-                                if on_plane(t, 1, 0.0)]
-            facets["mid_plane"] = plane_faces
-        add_groups(3, cells, facets)
-        return generate(3, order)
+        return _group_3d(body, sll, particles, [(-w / 2, w / 2)], D, lc, t1, length, tol, symmetry, order)
 
 
 #: the helical strip's loft has a section at least every this many degrees of turn [deg]

@@ -10,7 +10,7 @@ from hydrojam._lazy import lazy_api
 _PUBLIC = {
     "hydrojam.study.spec": ['Study', 'StudyError', 'SweepSpec', 'Point', 'load_study', 'study_from_dict', 'write_study', 'design_key', 'validation_message'],
     "hydrojam.study.sweep": ['run_sweep', 'PointOutcome', 'SchedulerError', 'check_address'],
-    "hydrojam.study.table": ['SweepTable', 'state_tables', 'run_states'],
+    "hydrojam.study.table": ['SweepTable', 'state_tables', 'run_states', 'NOT_IN_STATE'],
     "hydrojam.study.states": ['STATES', 'state_of'],
     "hydrojam.study.cache": ['PointStatus', 'ROW_STATUSES', 'point_progress'],
     "hydrojam.study.replicas": ['run_replicas', 'replica_study', 'ReplicaSummary', 'summarise', 'REPLICA_STUDY'],
