@@ -300,8 +300,8 @@ def test_reproduce_3d_states_are_reported_apart(tmp_path):
     point's states, replicas.csv each run's; the report's section "States" gives each state's runs
     and θ and every statement's verdict per state; each state gets its own shapes figure. The
     temperature sweep: arc at every temperature in replicas 0 and 1 with θ falling in T (T-angle
-    agrees on the arc runs), folded replica 2 at 275 and 285 K only (undetermined on the folded runs:
-    no folded run at 295 K)."""
+    agrees on the arc runs), folded replica 2 at 275 and 285 K only (checked on the folded runs over
+    275-285 K, the part of the range where the state occurs: agrees there too)."""
     import csv
     import json
 
@@ -327,7 +327,8 @@ def test_reproduce_3d_states_are_reported_apart(tmp_path):
     section = text.split("## States", 1)[1].split("###", 1)[0]
     assert "| temperature | 295 K | 3, " in section and "| 0 |" in section  # no folded run at 295 K
     line = next(ln for ln in section.splitlines() if ln.startswith("| T-angle |"))
-    assert "**agree**:" in line.split("|")[3] and "**undetermined**:" in line.split("|")[4]
+    assert "**agree**:" in line.split("|")[3] and "**agree**:" in line.split("|")[4]
+    assert "checked on the points run, 275 K to 285 K" in line.split("|")[4]
     for state in ("arc", "folded"):
         assert (tmp_path / "figures" / f"temperature_shapes_{state}.png").is_file()
         assert f"(figures/temperature_shapes_{state}.png)" in text
