@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
              else ("3D" if three_d else "2D, per mm of depth"))
     text = "\n".join([f"Measured by `{command}`: code of `{commit}`"
                       f"{' (with local changes)' if src['dirty'] is True else ''}, {os.cpu_count()} cores, "
-                      f"{threads} solver thread(s) a run, mesh {design.mesh.size:g} mm ({model}), "
+                      f"{threads} solver thread(s) a run, mesh {design.mesh_size:g} mm ({model}), "
                       f"friction {design.friction:g}, wall {wall:.0f} s"
                       f"{'' if args.no_run else f', exit {code}'}.", "", *table(out, three_d), *cost_table(out)])
     page = Path(args.page)

@@ -24,7 +24,7 @@ def main(out: Path) -> int:
     result = simulate(model, on_step=writer.step)  # every accepted load step goes to history.csv
     m = writer.finish(result)  # the metrics, as written to metrics.json
 
-    print(f"one particle layer, mesh size {design.mesh.size:g} mm, cooled to {design.stimulus.temperature:g} K")
+    print(f"one particle layer, mesh size {design.mesh_size:g} mm, cooled to {design.stimulus.temperature:g} K")
     print(f"bending angle:    {m['bending_angle_deg']:.2f} deg (positive: toward the strain-limit layer)")
     print(f"tip displacement: dx = {m['tip_dx_mm']:.2f} mm, dz = {m['tip_dz_mm']:.2f} mm")
     print(f"converged: {m['converged']} ({m['load_steps']} load steps, {m['newton_iterations']} Newton "

@@ -8,6 +8,7 @@ import pytest
 
 from hydrojam._validation import describe_error, field_range
 from hydrojam.actuator.design import (
+    DEFAULT_MESH_SIZE_MM,
     GelSpec,
     Design,
     DesignError,
@@ -100,6 +101,25 @@ def test_commented_toml_documents_every_field():
     assert "[mm]" in " ".join(lines[i - 2 : i]) and "(0, 1000.0]" in " ".join(lines[i - 2 : i])
     assert all(len(line) <= 100 for line in lines)
     assert "#" not in design_to_toml(default_design(), comments=False)
+
+
+def test_mesh_size_left_out_takes_the_dimensions_default():
+    """mesh.size omitted is derived from the dimension (written out by resolved(), so a run's
+    design.toml and its cache key name the size it ran with); --set dimension=3 follows it, and an
+    explicit size keeps its key."""
+    from hydrojam.study.spec import design_key
+
+    for dim in (2, 3):
+        d = Design(dimension=dim)
+        assert d.mesh.size is None and d.mesh_size == DEFAULT_MESH_SIZE_MM[dim]
+        assert d.resolved().mesh.size == DEFAULT_MESH_SIZE_MM[dim]
+        explicit = Design(dimension=dim, mesh={"size": DEFAULT_MESH_SIZE_MM[dim]})
+        assert design_key(d) == design_key(explicit)
+    assert apply_overrides(default_design(), ["dimension=3"]).mesh_size == DEFAULT_MESH_SIZE_MM[3]
+    assert apply_overrides(default_design(), ["dimension=3", "mesh.size=3"]).mesh_size == 3.0
+    text = design_to_toml(Design(dimension=3))
+    assert f"# size = {DEFAULT_MESH_SIZE_MM[3]!r}" in text.splitlines()
+    assert "size" not in tomllib.loads(text)["mesh"]
 
 
 def test_write_and_load(tmp_path):

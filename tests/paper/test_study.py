@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from hydrojam.actuator.design import apply_overrides, default_design
+from hydrojam.actuator.design import DEFAULT_MESH_SIZE_MM, apply_overrides, default_design
 from hydrojam.paper import study as pstudy
 
 
@@ -49,7 +49,7 @@ def test_paper_study(quick, distinct):
     assert len(points) == distinct + 2 and len({p.key for p in points}) == distinct
     base_key = study_mod.design_key(study.base)
     assert {p.sweep for p in points if p.key == base_key} == {s.name for s in pstudy.paper_sweeps(2)}
-    assert all(p.design.mesh.size == (pstudy.QUICK_MESH_SIZE if quick else 2.0) for p in points)
+    assert all(p.design.mesh_size == (pstudy.QUICK_MESH_SIZE if quick else 2.0) for p in points)
 
 
 def _old_way(quick):
@@ -77,10 +77,11 @@ def test_the_2d_study_is_unchanged_by_the_dimension(quick):
     assert pstudy.paper_base(quick, dimension=2) == pstudy.paper_base(quick)
 
 
-@pytest.mark.parametrize("quick, name, mesh, distinct", [(True, "paper-3d-quick", 4.0, 15), (False, "paper-3d", 2.0, 28)])
+@pytest.mark.parametrize("quick, name, mesh, distinct", [(True, "paper-3d-quick", 4.0, 15),
+                                                     (False, "paper-3d", DEFAULT_MESH_SIZE_MM[3], 28)])
 def test_the_3d_study(quick, name, mesh, distinct):
     """The 3D study: its own name, the 2D study's points on the same meshes (quick 4 mm, full
-    2 mm), spheres in the half model, and cache keys that no 2D point shares; and the strip-width
+    the 3D default), spheres in the half model, and cache keys that no 2D point shares; and the strip-width
     sweep, the paper's h read as a width (3D only), at the base design's thickness."""
     study = pstudy.paper_study(quick, dimension=3)
     assert study.name == name == pstudy.study_name(quick, 3)
@@ -89,10 +90,10 @@ def test_the_3d_study(quick, name, mesh, distinct):
     assert {s.name: s.vary for s in study.sweeps} == pstudy.paper_points(quick, dimension=3)
     assert list(pstudy.paper_points(quick, dimension=3)) == [*pstudy.paper_points(quick), "strain_limit_width"]
     assert study.base == apply_overrides(pstudy.paper_base(quick), ["dimension=3"])
-    assert study.base.dimension == 3 and study.base.mesh.symmetry and study.base.mesh.size == mesh
+    assert study.base.dimension == 3 and study.base.mesh.symmetry and study.base.mesh_size == mesh
     points = study.points()
     assert len({p.key for p in points}) == distinct
-    assert all(p.design.dimension == 3 and p.design.mesh.size == mesh for p in points)
+    assert all(p.design.dimension == 3 and p.design.mesh_size == mesh for p in points)
     assert not {p.key for p in points} & {p.key for p in pstudy.paper_study(quick).points()}
     two = {(p.sweep, p.index): p.design for p in pstudy.paper_study(quick).points()}
     for p in points:  # the same designs but for the dimension

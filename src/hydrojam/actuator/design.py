@@ -31,6 +31,7 @@ _REL_TOL = 1e-9  # relative slack of the fit checks: a derived cavity fits exact
 _YEOH_I1_RANGE = 30.0  # Yeoh stiffness must stay positive for 0 <= I1bar - 3 <= this (uniaxial stretch ~5.6)
 
 __all__ = [
+    "DEFAULT_MESH_SIZE_MM",
     "MAX_CAVITY_MM",
     "MAX_CHAMBERS_2D",
     "ChamberSpec",
@@ -218,13 +219,21 @@ class MeshSpec(BaseModel):
 
     model_config = _CONFIG
 
-    size: float = Field(2.0, gt=0, description="target element edge length, quadratic elements [mm]")
+    size: float | None = Field(
+        None, gt=0,
+        description="target element edge length, quadratic elements [mm]; omitted: the dimension's default "
+        "(DEFAULT_MESH_SIZE_MM: 2.0 in 2D, 2.0 in 3D; docs/actuator.md, \"Mesh convergence\")",
+    )
     symmetry: bool = Field(
         True,
         description="3D only: model the half y >= 0 (y = 0 is a symmetry plane: u_y = 0 there, results "
         "mirrored); false: the whole actuator. Must stay true in 2D",
     )
 
+
+#: mesh.size left out [mm], by dimension: the coarsest size whose angle, tip and curling index lie within
+#: the spread of the finest size run (benchmarks/mesh.py; docs/actuator.md, "Mesh convergence")
+DEFAULT_MESH_SIZE_MM = {2: 2.0, 3: 2.0}
 
 #: thickest wall or strain-limit layer [mm]: 1 m, the particle diameter's own bound; a
 #: hand-made chamber's walls are millimetres, anything near this is a unit mistake
@@ -508,12 +517,18 @@ class Design(BaseModel):
                     + 2.0 * self.side_wall_thickness + outer)
         return self.strain_limit_thickness + 2.0 * self.side_wall_thickness + self.resolved_cavity_width
 
+    @property
+    def mesh_size(self) -> float:
+        """Target element edge length [mm]: mesh.size, else the dimension's default
+        (:data:`DEFAULT_MESH_SIZE_MM`)."""
+        return DEFAULT_MESH_SIZE_MM[self.dimension] if self.mesh.size is None else self.mesh.size
+
     def estimated_elements(self) -> float:
         """About how many elements the mesh has [-]: the actuator's outer area (2D) or volume (3D;
         half of it for the half model) over that of an equilateral triangle or regular tetrahedron
         of edge ``mesh.size``. gmsh refines near the particles and thin walls: the real count is up
         to about twice this (1492 against 1443 for the default design). inf where the sizes overflow."""
-        h = self.mesh.size
+        h = self.mesh_size
         area = self.width * self.length
         if self.dimension == 2:
             return area / (math.sqrt(3.0) / 4.0 * h * h)
@@ -522,8 +537,8 @@ class Design(BaseModel):
         return volume / (h**3 / (6.0 * math.sqrt(2.0)))
 
     def resolved(self) -> Design:
-        """A copy with cavity_width, cavity_length (and cavity_depth in 3D) written out explicitly,
-        and with a schedule, stimulus.temperature set to the schedule's last temperature."""
+        """A copy with cavity_width, cavity_length (and cavity_depth in 3D) and mesh.size written out
+        explicitly, and with a schedule, stimulus.temperature set to the schedule's last temperature."""
         update = {"cavity_width": self.resolved_cavity_width, "cavity_length": self.resolved_cavity_length}
         if self.chambers is not None:  # each chamber has its own width; the shared keys written out
             update = {"cavity_length": self.resolved_cavity_length, "chambers": self.resolved_chambers,
@@ -535,6 +550,7 @@ class Design(BaseModel):
             update["cavity_depth"] = self.resolved_cavity_depth
         if self.stimulus.schedule is not None:
             update["stimulus"] = self.stimulus.model_copy(update={"temperature": self.stimulus.schedule[-1][1]})
+        update["mesh"] = self.mesh.model_copy(update={"size": self.mesh_size})
         return self.model_copy(update=update)
 
     def replica(self, k: int) -> Design:
@@ -568,7 +584,7 @@ class Design(BaseModel):
         if self.stimulus.schedule is not None:
             raise ValueError("stimulus.schedule: not with chambers: a time-resolved run has one temperature "
                              "(give each chamber its target temperature instead)")
-        c, h = self.clearance, self.mesh.size
+        c, h = self.clearance, self.mesh_size
         length = self.resolved_cavity_length
         depth = self.resolved_cavity_depth
         for k, ch in enumerate(self.resolved_chambers):
@@ -693,7 +709,7 @@ class Design(BaseModel):
                     f"{name}: the particles do not fit: {count} x {_g(d)} mm + {count + 1} x {_g(c)} mm "
                     f"clearance = {_g(need)} mm > {name} {_g(size)} mm; need {name} >= {_g(need)} mm"
                 )
-        h = self.mesh.size
+        h = self.mesh_size
         if h > d / 4.0:
             raise ValueError(
                 f"mesh.size: must be <= particle_diameter/4 = {_g(d / 4.0)} mm so that about 12 quadratic "
@@ -904,6 +920,7 @@ _DERIVED = {
     "cavity_width": "resolved_cavity_width",
     "cavity_length": "resolved_cavity_length",
     "cavity_depth": "resolved_cavity_depth",
+    "size": "mesh_size",  # [mesh]
 }
 
 
@@ -992,7 +1009,7 @@ def design_to_toml(design: Design, comments: bool = True) -> str:
         if comments:
             lines += _comment(info.description or name)
         lines.append(f"[{name}]")
-        lines += _field_lines(getattr(design, name), comments, None)
+        lines += _field_lines(getattr(design, name), comments, design if name == "mesh" else None)
     if comments and design.chambers is None:
         lines += ([""] if lines and lines[-1] != "" else []) + _comment(Design.model_fields["chambers"].description) + [
             "# [[chambers]]", "# [[chambers]]", "# temperature = 295.0", "# [chambers.hydrogel]",

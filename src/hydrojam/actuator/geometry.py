@@ -133,7 +133,7 @@ def actuator_2d_chambers(design: Design, order: int = 2) -> Mesh:
     centres, radii, _ = chamber_particles(design)
     tol = 1e-6 * length
     with gmsh_session():
-        set_mesh_size(design.mesh.size)
+        set_mesh_size(design.mesh_size)
         occ = gmsh.model.occ
         left = occ.cut([(2, occ.addRectangle(xl, -length, 0.0, -half - xl, length))],
                        [(2, occ.addRectangle(a0, -t1 - lc, 0.0, a1 - a0, lc))])[0]
@@ -260,7 +260,7 @@ def actuator_3d_chambers(design: Design, order: int = 2) -> Mesh:
     symmetry = design.mesh.symmetry
     tol = 0.05 * min(t0, t1, h, 2 * half)
     with gmsh_session():
-        set_mesh_size(design.mesh.size)
+        set_mesh_size(design.mesh_size)
         occ = gmsh.model.occ
 
         def box(x0, x1):
@@ -314,7 +314,7 @@ def mesh_design(design: Design) -> Mesh:
     return actuator_2d(
         design.resolved_cavity_width, design.resolved_cavity_length, design.side_wall_thickness,
         design.end_wall_thickness, design.strain_limit_thickness, particle_centres(design),
-        design.particle_diameter / 2, design.mesh.size, order=2,
+        design.particle_diameter / 2, design.mesh_size, order=2,
     )
 
 
@@ -491,7 +491,7 @@ def mesh_design_3d(design: Design) -> Mesh:
     return actuator_3d(
         design.resolved_cavity_width, design.resolved_cavity_depth, design.resolved_cavity_length,
         design.side_wall_thickness, design.end_wall_thickness, design.strain_limit_thickness,
-        particle_centres(design), design.particle_diameter / 2, design.mesh.size,
+        particle_centres(design), design.particle_diameter / 2, design.mesh_size,
         symmetry=design.mesh.symmetry, order=2, strain_limit_width=design.strain_limit_width,
         strain_limit_helix_deg=design.helix_angle_deg,
     )

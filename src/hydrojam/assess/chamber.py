@@ -83,9 +83,9 @@ def empty_chamber_mesh(design: Design):
     if d.dimension == 3:
         return actuator_3d(d.resolved_cavity_width, d.resolved_cavity_depth, d.resolved_cavity_length,
                            d.side_wall_thickness, d.end_wall_thickness, d.strain_limit_thickness, np.zeros((0, 3)),
-                           d.particle_diameter / 2, d.mesh.size, symmetry=d.mesh.symmetry, order=2)
+                           d.particle_diameter / 2, d.mesh_size, symmetry=d.mesh.symmetry, order=2)
     return actuator_2d(d.resolved_cavity_width, d.resolved_cavity_length, d.side_wall_thickness, d.end_wall_thickness,
-                       d.strain_limit_thickness, np.zeros((0, 2)), d.particle_diameter / 2, d.mesh.size, order=2)
+                       d.strain_limit_thickness, np.zeros((0, 2)), d.particle_diameter / 2, d.mesh_size, order=2)
 
 
 def empty_chamber(design: Design, mesh=None) -> Structure:

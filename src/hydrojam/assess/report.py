@@ -265,7 +265,7 @@ def write_report(a: Assessment, out: str | os.PathLike) -> Path:
              f"Design: {d.particle_layers} layer{'s' if d.particle_layers != 1 else ''} of {d.particle_diameter:g} mm particles, membrane G = "
              f"{d.membrane.shear_modulus:g} MPa, t0 = {d.side_wall_thickness:g} mm, strain-limit layer h = "
              f"{d.strain_limit_thickness:g} mm, actuated at T = {d.stimulus.temperature:g} K ({model}, mesh "
-             f"{d.mesh.size:g} mm). Wall time {v['wall_time_s']:.0f} s.", "", units_line(a.three_d), "",
+             f"{d.mesh_size:g} mm). Wall time {v['wall_time_s']:.0f} s.", "", units_line(a.three_d), "",
              "## The answer", ""]
     lines += [f"- {c}" for c in conclusion(a)]
     lines += ["", "## Against the authors' later numbers", ""] + authors_table(v)
@@ -410,7 +410,7 @@ def write_replica_report(r, out: str | os.PathLike) -> Path:
              f"Design: {d.particle_layers} layer{'s' if d.particle_layers != 1 else ''} of {d.particle_diameter:g} mm "
              f"particles, membrane G = {d.membrane.shear_modulus:g} MPa, t0 = {d.side_wall_thickness:g} mm, actuated at "
              f"T = {d.stimulus.temperature:g} K ({'3D, half model' if three_d and d.mesh.symmetry else ('3D' if three_d else '2D, plane strain')}, "
-             f"mesh {d.mesh.size:g} mm); {len(r.runs)} replicas (seed {d.replicas.seed}, jitter {d.replicas.jitter:g} x "
+             f"mesh {d.mesh_size:g} mm); {len(r.runs)} replicas (seed {d.replicas.seed}, jitter {d.replicas.jitter:g} x "
              f"clearance), {ok} converged in every part. Wall time {r.wall_time_s:.0f} s (replicas in parallel), "
              f"{r.compute_time_s:.0f} s summed.", "", units_line(three_d),
              "Every figure is the mean ± the standard deviation over the replicas (n - 1).", "", "## The answer", ""]

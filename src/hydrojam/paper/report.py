@@ -262,9 +262,9 @@ def write_report(out: str | os.PathLike, table, quick: bool, wall_time_s: float 
     command = reproduce_command(quick, dim, n_replicas, overrides)
     if dim == 3:
         model = (f"3D (particles are spheres; {'the half model y ≥ 0, y = 0 a symmetry plane' if base.mesh.symmetry else 'the full model'}), "
-                 f"mesh size {base.mesh.size:g} mm (quadratic tetrahedra)")
+                 f"mesh size {base.mesh_size:g} mm (quadratic tetrahedra)")
     else:
-        model = f"2D plane strain (particles are cylinders), mesh size {base.mesh.size:g} mm (quadratic triangles)"
+        model = f"2D plane strain (particles are cylinders), mesh size {base.mesh_size:g} mm (quadratic triangles)"
     L = [f"# hydrojam reproduction of Chen, Schott & Jovanova, Section IV (Figs. 6-11){', in 3D' if dim == 3 else ''}",
          ""]
     if n_replicas <= 1:

@@ -66,7 +66,7 @@ def conditions_line(base: Design, quick: bool, replicas: int, workers: int | Non
     friction = "frictionless" if base.friction == 0 else f"friction {base.friction:g}"
     who = f"{workers} workers" if workers else "one worker per CPU"
     return (f"Conditions: `{reproduce_command(quick, dim, replicas, overrides)}`, runs computed by the code of {commit}, {model}, mesh "
-            f"{base.mesh.size:g} mm, {replicas} run{'s' if replicas != 1 else ''} a point, {friction}, {who} on "
+            f"{base.mesh_size:g} mm, {replicas} run{'s' if replicas != 1 else ''} a point, {friction}, {who} on "
             f"{os.cpu_count()} cores; {runs[0]} of {runs[1]} runs finished. θ, δx, δz: mean ± standard deviation "
             "over the runs that converged; the states as in docs/replicas.md.")
 
@@ -222,7 +222,7 @@ def time_lines(table, base: Design, quick: bool, replicas: int, workers: int | N
             "|---|---:|---|---:|---:|---|",
             f"| `{reproduce_command(quick, base.dimension, replicas, overrides)}` | {runs:.0f} of "
             f"{sum(int(number(r.get('replicas')) or 1) for r in rows.values())} | {span} | {per_run} | "
-            f"{compute / 3600:.1f} h | mesh {base.mesh.size:g} mm, {who} of one thread on {os.cpu_count()} cores, "
+            f"{compute / 3600:.1f} h | mesh {base.mesh_size:g} mm, {who} of one thread on {os.cpu_count()} cores, "
             f"code {commit} |"]
 
 

@@ -175,7 +175,7 @@ class PointOutcome:
 
 def estimated_cost(design: Design) -> float:
     """A rough relative cost of simulating a design: particles / mesh.size^2."""
-    return design.particle_layers * design.particles_per_layer / design.mesh.size**2
+    return design.particle_layers * design.particles_per_layer / design.mesh_size**2
 
 
 def check_address(address: str) -> None:
