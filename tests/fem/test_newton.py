@@ -307,6 +307,42 @@ def test_conjugate_gradients_solve_the_full_system_preconditioned_by_a_nearby_on
     assert g @ x < 0
 
 
+@pytest.mark.parametrize("method", ["scipy", "pardiso"])
+def test_an_undamped_step_solves_the_hessian_without_the_regularisation(method):
+    """H with two eigenvalues (1e-3 and 1e-2) below the shift eps = 0.05 that the factorisation
+    carries, the rest in [1, 10]: the regularised solution is short in those modes by
+    eps/(lambda + eps) (0.98, 0.83), and the conjugate gradients preconditioned by that
+    factorisation ((H + eps I)^-1 H has its spectrum in [0.95, 1] but for those two modes) reach
+    H^-1 (-g) to linear_residual x ||g|| within the allowed steps (x's error <= residual / 1e-3).
+    Where H is singular and g has a component in its null space, no step solves H: the
+    regularised one is kept."""
+    from hydrojam.fem.solver.linsolve import LinearSolver
+    from hydrojam.fem.solver.newton import NewtonOptions, _unshifted
+
+    if method == "pardiso" and not _pardiso_available():
+        pytest.skip("PARDISO is not available")
+    n = 60
+    rng = np.random.default_rng(7)
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    lam = np.concatenate([[1e-3, 1e-2], np.linspace(1.0, 10.0, n - 2)])
+    H = sp.csr_matrix((Q * lam) @ Q.T)
+    g = rng.standard_normal(n)
+    options = NewtonOptions()
+    r = float(np.linalg.norm(g))
+    solver = LinearSolver(method)
+    shift = 0.05 * sp.identity(n, format="csr")
+    shifted = solver.solve(H + shift, -g)
+    dx = _unshifted(H, shifted, g, r, solver, options)
+    exact = np.linalg.solve(H.toarray(), -g)
+    assert np.linalg.norm(shifted - exact) > 0.5 * np.linalg.norm(exact)
+    assert np.linalg.norm(H @ dx + g) <= options.linear_residual * r
+    assert np.linalg.norm(dx - exact) <= options.linear_residual * r / 1e-3
+    lam[0] = 0.0  # a rigid mode, and a force along it that no step can balance
+    H = sp.csr_matrix((Q * lam) @ Q.T)
+    solver.solve(H + shift, -g)
+    assert _unshifted(H, shifted, g, r, solver, options) is shifted
+
+
 def test_conjugate_gradients_refuse_a_system_with_negative_curvature():
     """K = M - c w w^T with c w^T M^-1 w > 1 has one negative eigenvalue, and the preconditioned
     Krylov space holds it after two iterations: K's restriction to the conjugate directions is

@@ -51,6 +51,9 @@ DEFINITE_FLOOR = 1e-4
 DECREMENT_ROUNDOFF = 1e-14
 #: The line search accepts an energy rise of this x |E| (round-off): full steps near convergence.
 ENERGY_SLACK = 1e-12
+#: Conjugate-gradient steps at most that solve an undamped step (tau = 0) on H itself, without
+#: the regularisation, preconditioned by the regularised factorisation (:func:`_unshifted`).
+UNSHIFTED_STEPS = 10
 #: Factor on the step length after a rejected trial of the line search.
 BACKTRACK = 0.5
 #: Within ``stall_factor`` of the tolerance, a full step (no CCD cap) that fails the energy test
@@ -94,9 +97,11 @@ class NewtonOptions:
     min_alpha: float = 1e-8
     """Smallest step length the line search tries [-] (default 1e-8)."""
     regularisation: float = 1e-9
-    """eps, times mean|diag H|, added to the diagonal always: pins the rigid modes of a floating
-    body, in which a singular solve returns an arbitrary drift that no residual check sees
-    (default 1e-9)."""
+    """eps, times mean|diag H|, added to the diagonal of every factorised K: pins the rigid modes
+    of a floating body, in which a singular solve returns an arbitrary drift that no residual
+    check sees. An undamped step (tau = 0) is then solved on H itself by conjugate gradients
+    preconditioned with that factorisation (:func:`_unshifted`), so the shift does not slow the
+    convergence of a mode softer than it, such as a slender structure's bending (default 1e-9)."""
     linear_residual: float = 1e-6
     """A linear solve is accepted when ||K dx + g|| <= this x ||g|| (default 1e-6)."""
     residual_search: bool = False
@@ -230,8 +235,12 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
     direction is the one "krylov_detect" takes without it.
 
     Damping changes the step, never the equilibrium.
-    - eps (``regularisation``), always: a floating body's rigid modes are an exact null space,
-      in which a singular solve returns an arbitrary drift that no residual check can see.
+    - eps (``regularisation``), in every factorisation: a floating body's rigid modes are an
+      exact null space, in which a singular solve returns an arbitrary drift that no residual
+      check can see. An undamped step (tau = 0) is solved on H without eps where a few
+      preconditioned conjugate gradients get there (:func:`_unshifted`): eps would otherwise
+      damp every mode softer than it (a slender strip's bending) and Newton would converge
+      there only linearly.
     - tau: starts at the Marquardt term ``lm`` and grows only while the step does not descend;
       with ``definite`` (the inertia correction) also while K has a negative eigenvalue.
       Projecting element Hessians instead discards the curvature of every gel element (each is
@@ -247,7 +256,7 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
         # lm is definite, the projected one is too and the conjugate gradients meet no negative
         # curvature, so "krylov_detect" would take this solution
         K = Hff + sp.diags(lm * hdiag + eps, format="csr")
-        cand, full_indefinite = _definite_solution(K, g, r, reach, solver, options)
+        cand, full_indefinite = _definite_solution(K, g, r, reach, solver, options, Hff if lm == 0 else None)
         if cand is not None:
             return cand, float(g @ cand), lm, False, None
     tau, dx, slope, Hfull, negative, projected = lm, None, 0.0, Hff, None, False
@@ -259,7 +268,7 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
             Hff = free_sum([t.hessian(xs, True) if t.fallback_projection else h for t, h in zip(terms, hessians)], fidx)
             tau, projected = lm, True
         K = Hff + sp.diags(tau * hdiag + eps, format="csr")
-        cand, indefinite = _accurate_solution(K, g, r, reach, solver, options)
+        cand, indefinite = _accurate_solution(K, g, r, reach, solver, options, Hff if tau == 0 else None)
         if cand is not None:
             slope = float(g @ cand)
             indefinite = options.definite and bool(solver.negative_eigenvalues)
@@ -273,36 +282,78 @@ def _direction(terms, xs, hessians, Hff, hdiag, g, r, lm, fidx, solver, options:
         # projected K needed more damping, the full one at lm is indefinite too)
         K = Hfull + sp.diags(tau * hdiag + eps, format="csr")
         _, negative = _conjugate_gradients(K, g, r, solver, options.detect_iterations, options)
-        full = None if negative is not None else _definite_solution(K, g, r, reach, solver, options)[0]
+        full = None if negative is not None else _definite_solution(K, g, r, reach, solver, options,
+                                                                    Hfull if tau == 0 else None)[0]
         if full is not None:
             dx, slope, projected = full, float(g @ full), False
     return dx, slope, tau, projected, negative
 
 
-def _accurate_solution(K, g, r, reach, solver, options: NewtonOptions):
+def _accurate_solution(K, g, r, reach, solver, options: NewtonOptions, unshifted=None):
     """(dx, indefinite): the solution of K dx = -g by a factorisation where the solve succeeds and
     ||K dx + g|| <= linear_residual x r, None otherwise; indefinite where the inertia correction
     (``options.definite``) asked the solver for a positive definite K and it found it is not one
-    (a failed Cholesky factorisation: the solution is not needed then)."""
+    (a failed Cholesky factorisation: the solution is not needed then). ``unshifted``: K without
+    the regularisation (an undamped step), whose solution :func:`_unshifted` then takes where
+    it gets there."""
     try:
         dx = solver.solve(K, -g, reach, definite=options.definite)
     except NotPositiveDefinite:
         return None, True
     except LinearSolveError:
         return None, False
-    return (dx if np.linalg.norm(K @ dx + g) <= options.linear_residual * r else None), False
+    if np.linalg.norm(K @ dx + g) > options.linear_residual * r:
+        return None, False
+    if unshifted is not None and not (options.definite and solver.negative_eigenvalues):
+        dx = _unshifted(unshifted, dx, g, r, solver, options)
+    return dx, False
 
 
-def _definite_solution(K, g, r, reach, solver, options: NewtonOptions):
+def _definite_solution(K, g, r, reach, solver, options: NewtonOptions, unshifted=None):
     """(dx, indefinite): :func:`_accurate_solution`'s dx where K is positive definite by its
     inertia and dx descends, None otherwise; indefinite where the factorisation showed K is not
     positive definite (a Cholesky's refusal, an LDL^T's negative eigenvalue)."""
-    dx, refused = _accurate_solution(K, g, r, reach, solver, options)
+    dx, refused = _accurate_solution(K, g, r, reach, solver, options, unshifted)
     if dx is None:
         return None, refused
     if solver.negative_eigenvalues:
         return None, True
     return (dx if g @ dx < 0 else None), False
+
+
+def _unshifted(H, dx, g, r, solver, options: NewtonOptions):
+    """The solution of H dx = -g (H without the regularisation eps) by at most
+    :data:`UNSHIFTED_STEPS` conjugate gradients from ``dx`` (the regularised solution),
+    preconditioned with the solver's last factorisation (H + eps mean|diag H| I): taken where
+    ||H dx + g|| <= linear_residual x r and it descends, the given dx otherwise (H not positive
+    definite along a search direction, or a floating body's null space, where the residual
+    cannot fall and eps must hold the rigid modes).
+
+    In the regularised solution a mode of H with eigenvalue lambda is short by eps/(lambda + eps):
+    where eps exceeds a slender structure's bending stiffness, Newton converged there only
+    linearly (docs/solver.md, "Choices"). Preconditioned, H has its spectrum at 1 but for the
+    few modes about as soft as eps, which the conjugate gradients resolve in about as many
+    steps."""
+    target = options.linear_residual * r
+    x, res = dx, -g - H @ dx
+    if np.linalg.norm(res) <= target:
+        return dx
+    z = solver.resolve(res, approximate=True)
+    p, rz = z, float(res @ z)
+    for _ in range(UNSHIFTED_STEPS):
+        Hp = H @ p
+        curvature = float(p @ Hp)
+        if curvature <= 0:
+            return dx
+        a = rz / curvature
+        x = x + a * p
+        res = res - a * Hp
+        if np.linalg.norm(res) <= target:
+            return x if np.linalg.norm(H @ x + g) <= target and g @ x < 0 else dx
+        z = solver.resolve(res, approximate=True)
+        rz, rz_old = float(res @ z), rz
+        p = z + (rz / rz_old) * p
+    return dx
 
 
 def _conjugate_gradients(K, g, r, solver, steps: int, options: NewtonOptions):
