@@ -64,13 +64,36 @@ class SizeRuns:
                 if r.get(column) not in (None, "") and (state is None or (r["states"] or "—") == state)]
 
 
-def read_runs(out: Path, size: float) -> SizeRuns:
-    """The runs of ``out/replicas.csv`` that finished (status ok); ``total`` counts all its rows."""
+def _cached_rows(out: Path, design, count: int) -> list[dict]:
+    """One row per replica 0 .. count-1 of ``design``, as replicas.csv has them, from the records
+    in ``out/points`` (a run that finished before its replica study was stopped counts too)."""
+    from hydrojam.study.replicas import replica_study
+    from hydrojam.study.table import replica_table
+
+    study = replica_study(design, count)
+    records = {}
+    for p in study.points():
+        try:
+            records[p.key] = json.loads((out / "points" / p.key / "point.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+    return replica_table(study, records).rows
+
+
+def read_runs(out: Path, size: float, base=None, count: int | None = None) -> SizeRuns:
+    """The runs that finished (status ok) of replicas 0 .. ``count``-1 of the design ``base`` at
+    mesh ``size`` in ``out/points``, or, without a base, of ``out/replicas.csv``; ``total``
+    counts all rows."""
     path = out / "replicas.csv"
-    if not path.is_file():
+    if base is not None and count and (out / "points").is_dir():
+        from hydrojam.actuator.design import apply_overrides
+
+        rows = _cached_rows(out, apply_overrides(base, [f"mesh.size={size!r}"]), count)
+    elif not path.is_file():
         return SizeRuns(size, [], 0)
-    with path.open(newline="", encoding="utf-8") as f:
-        rows = list(csv.DictReader(f))
+    else:
+        with path.open(newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
     runs = [r for r in rows if r.get("status") == "ok"]
     commits = []
     for r in runs:
@@ -131,6 +154,10 @@ def convergence_table(sizes: list[SizeRuns]) -> tuple[str, float | None]:
         lines.append("| " + " | ".join(cells) + " |")
     if chosen is None and finest.runs:
         chosen = finest.size
+    if len(finest.runs) < 2 and finest.runs:
+        lines.append("")
+        lines.append(f"The finest size, {finest.size:g} mm, has one finished run: its own spread is not measured, "
+                     f"so the rule's bound is the coarser size's alone; the choice below is provisional.")
     unfinished = [s.size for s in sizes if not s.runs and s.size < finest.size]
     if unfinished:
         lines.append("")
@@ -166,7 +193,7 @@ def main(argv=None) -> int:
             design = apply_overrides(base, [f"mesh.size={size!r}"])
             print(f"mesh {size:g} mm: {n} run(s) into {args.root / f'mesh-{size:g}'}", flush=True)
             run_replicas(design, args.root / f"mesh-{size:g}", count=n, workers=args.workers)
-    sizes = [read_runs(args.root / f"mesh-{s:g}", s) for s in args.sizes]
+    sizes = [read_runs(args.root / f"mesh-{s:g}", s, base, n) for s, n in zip(args.sizes, counts)]
     text, chosen = convergence_table(sizes)
     commits = list(dict.fromkeys(c for s in sizes for c in s.commits))
     code = ("runs computed by the code of " + ", ".join(f"`{c}`" for c in commits)) if commits else "no run yet"

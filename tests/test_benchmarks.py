@@ -306,6 +306,29 @@ def _replicas_csv(out: Path, angles: list[float], state: str = "folded") -> None
     (out / "replicas.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+def test_the_mesh_table_reads_the_runs_a_stopped_replica_study_finished(tmp_path):
+    """Without replicas.csv (a replica study stopped before its last run), the finished runs are
+    read from their records in points/; the finest size's single run is said to be provisional."""
+    import json
+
+    import mesh as mesh_benchmark
+
+    from hydrojam.actuator.design import apply_overrides, default_design
+    from hydrojam.study.replicas import replica_study
+
+    base = default_design()
+    keys = [p.key for p in replica_study(apply_overrides(base, ["mesh.size=4.0"]), 2).points()]
+    metrics = {"bending_angle_deg": 74.0, "tip_dx_mm": -64.0, "tip_dz_mm": -2.5, "curling_index": 0.74,
+               "column_folds": 1, "newton_iterations": 1200, "wall_time_s": 70.0, "converged": True}
+    (tmp_path / "mesh-4" / "points" / keys[0]).mkdir(parents=True)
+    (tmp_path / "mesh-4" / "points" / keys[0] / "point.json").write_text(
+        json.dumps({"key": keys[0], "status": "ok", "error": None, "metrics": metrics}), encoding="utf-8")
+    runs = mesh_benchmark.read_runs(tmp_path / "mesh-4", 4.0, base, 2)
+    assert (len(runs.runs), runs.total) == (1, 2) and runs.values("bending_angle_deg") == [74.0]
+    text, chosen = mesh_benchmark.convergence_table([runs])
+    assert chosen == 4.0 and "has one finished run" in text and "| 1 of 2 |" in text
+
+
 def test_the_mesh_convergence_table_chooses_the_coarsest_size_within_the_finest_spread(tmp_path):
     """``mesh.py``: a size qualifies where every metric's mean lies within the finest's mean ± 2 s,
     s the larger standard deviation of the two; the coarsest such size is chosen, a coarser one
