@@ -1,0 +1,175 @@
+"""Three chambers round the axis (docs/chambers.md, "Three chambers round the axis"): the design's
+checks, the geometry against the layout, and the bending plane each activation picks.
+
+The activations cool a chamber below its gel's as-prepared temperature at the as-prepared
+solvent potential, so that an unactivated chamber (at T0) does not move at all and an activated
+one swells a few per cent: the runs stay small and cheap."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+
+import numpy as np
+import pytest
+
+from hydrojam.actuator.design import DesignError, default_design, design_from_dict, design_to_toml
+from hydrojam.study.spec import design_key
+
+THREE = {"dimension": 3, "particle_layers": 1, "mesh": {"size": 4.0, "symmetry": False},
+         "chambers": [{}, {}, {}]}
+
+
+# ------------------------------------------------------------------------------------------------ design
+
+
+def test_three_chambers_lie_round_the_axis_and_round_trip():
+    """The layout: cavities of diameter D = d + 2c at r_c = (D + t_w)/sqrt(3) from the axis (the
+    wall between neighbours t_w at its thinnest), the body's radius r_c + D/2 + t0; with a core of
+    diameter h, r_c grows to keep t_w between each cavity and the core."""
+    d = design_from_dict(THREE)
+    D = 16.0 + 2 * 0.1
+    assert d.round_axis and d.resolved_strain_limit_position == "none"
+    assert d.chamber_radius == pytest.approx((D + 2.0) / math.sqrt(3.0))
+    assert d.outer_radius == pytest.approx(d.chamber_radius + D / 2 + 2.0) and d.width == 2 * d.outer_radius
+    # the thinnest wall between two cavities: the distance of their axes less a diameter
+    assert d.chamber_radius * math.sqrt(3.0) - D == pytest.approx(d.resolved_chamber_wall)
+    core = design_from_dict({**THREE, "strain_limit_position": "core"})
+    assert core.chamber_radius == pytest.approx(D / 2 + 2.0 + 8.0 / 2)
+    r = d.resolved()
+    assert all(ch.cavity_width is None and ch.particles_per_layer == 1 for ch in r.chambers)
+    for design in (d, r, core):
+        for comments in (True, False):
+            assert design_from_dict(tomllib.loads(design_to_toml(design, comments))) == design
+    assert design_key(d) == design_key(r) != design_key(design_from_dict({**THREE, "chambers": [{}, {}]}))
+
+
+@pytest.mark.parametrize(
+    "change, expected",
+    [
+        ({"dimension": 2, "mesh": {"size": 4.0}}, ["chambers: 2D takes 2 chambers", "dimension = 3", "got 3"]),
+        ({"mesh": {"size": 4.0, "symmetry": True}}, ["mesh.symmetry: must be false with three chambers", "got true"]),
+        ({"chambers": [{}, {}, {}, {}]}, ["chambers: 3D takes 2 chambers side by side along x or 3 round the axis",
+                                          "got 4"]),
+        ({"strain_limit_position": "-x"}, ["strain_limit_position: with three chambers round the axis allowed: "
+                                           "'none', 'core'", "'-x'"]),
+        ({"strain_limit_position": "middle"}, ["strain_limit_position", "'middle'"]),
+        ({"chambers": [{}, {"cavity_width": 20.0}, {}]}, ["chambers.1.cavity_width: not with three chambers",
+                                                         "cylinder of diameter cavity_depth"]),
+        ({"chambers": [{}, {}, {"particles_per_layer": 2}]}, ["chambers.2.particles_per_layer: must be 1", "got 2"]),
+        ({"particles_per_layer": 2}, ["particles_per_layer: must be 1 with three chambers", "got 2"]),
+        ({"chambers": [{}, {"particle_diameter": 12.0}, {}]}, ["chambers.1.particle_diameter: three chambers round "
+                                                              "the axis hold the same particles", "16 mm",
+                                                              "got 12 mm"]),
+        ({"chambers": [{}, {}, {"particle_layers": 2}]}, ["chambers.2.particle_layers", "must equal chamber 0's 1"]),
+        ({"chamber_wall_thickness": 1.0}, ["chamber_wall_thickness: too thin for mesh.size 4 mm", ">= 2 mm"]),
+        ({"cavity_depth": 15.0}, ["cavity_depth", "do not fit", ">= 16.2 mm"]),
+        ({"cavity_length": 10.0}, ["cavity_length: chamber 0's particles do not fit", ">= 16.2 mm"]),
+        ({"chambers": [{}, {"temperature": 380.0}, {}]}, ["chambers.1.temperature", "[273.15, 373.15]"]),
+        ({"strain_limit_width": 8.0}, ["strain_limit_width: not with chambers"]),
+        ({"strain_limit_helix_deg": 20.0, "strain_limit_width": 8.0}, ["strain_limit_width: not with chambers"]),
+        ({"side_wall_thickness": 0.5, "chamber_wall_thickness": 2.0}, ["side_wall_thickness: too thin for mesh.size 4 mm", ">= 1 mm"]),
+    ],
+)
+def test_bad_three_chamber_designs_are_refused_naming_the_field(change, expected):
+    with pytest.raises(DesignError) as info:
+        design_from_dict({**THREE, **change})
+    msg = str(info.value)
+    assert "\n" not in msg
+    for part in expected:
+        assert part in msg, msg
+
+
+def test_a_core_needs_three_chambers():
+    with pytest.raises(DesignError, match="strain_limit_position: 'core' only with three chambers round the axis"):
+        design_from_dict({**THREE, "strain_limit_position": "core", "chambers": [{}, {}]})
+    with pytest.raises(DesignError, match="strain_limit_position: only with chambers"):
+        design_from_dict({"strain_limit_position": "core"})
+
+
+def test_the_keys_of_designs_without_three_chambers_are_unchanged():
+    """The layout comes from the count of chambers, so no field is added: the default designs and
+    a two-chamber design keep the keys they had before three chambers existed."""
+    d = default_design()
+    assert design_key(d) == "894a189094082666"
+    assert design_key(d.model_copy(update={"dimension": 3})) == "294500bf73f76013"
+    two = design_from_dict({"particle_layers": 2, "strain_limit_position": "none", "mesh": {"size": 4.0},
+                            "chambers": [{}, {}]})
+    assert not two.round_axis and two.resolved_strain_limit_position == "none"
+
+
+# ------------------------------------------------------------------------------------------------ geometry
+
+
+def _volume(mesh, name):
+    from hydrojam.fem.assembly import Block, Solid
+    from hydrojam.fem.elements import element_for_meshio_type
+    from hydrojam.materials.energies import NeoHookean
+
+    el = element_for_meshio_type(mesh.cell_type)
+    block = Block(mesh.cells[mesh.cell_groups[name]], el, NeoHookean(shear_modulus=1.0, poisson_ratio=0.3), name)
+    return float(Solid(mesh.points, [block]).current_volumes(mesh.points)[name].sum())
+
+
+@pytest.mark.parametrize("where", ["none", "core"])
+def test_three_chamber_geometry(where):
+    """The meshed bodies have the volumes of the layout, within the error of quadratic
+    tetrahedra on curved faces; the mesh turns onto itself by 120 deg and mirrors onto itself
+    about y = 0 node for node; the axis is a line of nodes from the clamp to the free end; the
+    particles sit on their cavities' axes, 120 deg apart."""
+    from hydrojam.actuator.geometry import actuator_3d_round, chamber_angles_deg, round_axis_particles
+    from hydrojam.actuator.model import _centreline
+
+    d = design_from_dict({**THREE, "strain_limit_position": where}).resolved()
+    mesh = actuator_3d_round(d)
+    L, R, D, lc, h = d.length, d.outer_radius, d.resolved_cavity_depth, d.resolved_cavity_length, \
+        d.strain_limit_thickness
+    cavities = 3 * math.pi * D**2 / 4 * lc
+    core = math.pi * h**2 / 4 * L if where == "core" else 0.0
+    # a quadratic edge of length e on a curve of radius r departs from it by O(e^4 / r^3): the
+    # curved bodies' volumes err by a share of order (e/r)^4, 1/16 of it taken as the tolerance
+    # (3.9e-3 at e = mesh.size 4 mm, r = 8 mm, the spheres' and cavities' radius; the spheres
+    # measure 6.3e-4)
+    rel = (d.mesh.size / 8.0) ** 4 / 16
+    assert _volume(mesh, "membrane") == pytest.approx(math.pi * R**2 * L - cavities - core, rel=rel)
+    if where == "core":
+        assert _volume(mesh, "strain_limit_layer") == pytest.approx(core, rel=rel)
+    else:
+        assert "strain_limit_layer" not in mesh.cell_groups
+    ball = math.pi / 6 * 16.0**3
+    for k in range(3):
+        assert _volume(mesh, f"particle{k}") == pytest.approx(ball, rel=rel)
+    tol = 1e-9 * L  # the copies are exact images: their nodes agree to round-off
+    P = mesh.points
+    a = math.radians(120.0)
+    turned = P @ np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]]).T
+    for image in (turned, P * [1.0, -1.0, 1.0]):
+        from scipy.spatial import cKDTree
+
+        dist, _ = cKDTree(P).query(image)
+        assert dist.max() < tol
+    line = P[_centreline(mesh, d)]
+    assert np.all(np.abs(line[:, :2]) < tol) and line[0, 2] == pytest.approx(0.0, abs=tol)
+    assert line[-1, 2] == pytest.approx(-L) and np.all(np.diff(line[:, 2]) < 0)
+    centres, _, counts = round_axis_particles(d)
+    assert counts == [1, 1, 1]
+    for k, phi in enumerate(chamber_angles_deg(d)):
+        nodes = np.unique(mesh.cells[mesh.cell_groups[f"particle{k}"]])
+        centre = P[nodes].mean(axis=0)
+        e = np.array([math.cos(math.radians(phi)), math.sin(math.radians(phi))])
+        # the sphere's mesh is mirror-symmetric about its chamber's plane: its nodes' mean lies in
+        # the plane; along it, unevenly spaced nodes put the mean within a mesh size of the centre
+        assert abs(centre[0] * e[1] - centre[1] * e[0]) < tol
+        assert centre[:2] @ e == pytest.approx(d.chamber_radius, abs=d.mesh.size)
+
+
+def test_each_chamber_takes_its_own_temperature():
+    """The three chambers' gels follow their own paths: chamber k to its own temperature."""
+    from hydrojam.actuator.model import build_model, particle_block
+
+    mu0 = default_design().hydrogel.params().mu0
+    model = build_model(design_from_dict({**THREE, "stimulus": {"mu": mu0, "temperature": 300.0},
+                                          "chambers": [{"temperature": 298.0}, {}, {"temperature": 290.0}]}))
+    end = model.materials_at(1.0)
+    assert [end[particle_block(k)].T for k in range(3)] == [298.0, 300.0, 290.0]
+    assert model.gauges.round_axis and model.symmetry_nodes is None
