@@ -173,3 +173,118 @@ def test_each_chamber_takes_its_own_temperature():
     end = model.materials_at(1.0)
     assert [end[particle_block(k)].T for k in range(3)] == [298.0, 300.0, 290.0]
     assert model.gauges.round_axis and model.symmetry_nodes is None
+
+
+# ------------------------------------------------------------------------------------------------ bending plane
+
+#: an activated chamber: cooled from its gel's as-prepared 300 K to 295 K at the as-prepared
+#: solvent potential, so that its particle swells by 14 % in length; an unactivated one stays at
+#: 300 K, as prepared, and does not move
+ACTIVE, IDLE = 295.0, 300.0
+
+
+def _run(active: set[int]) -> dict:
+    from hydrojam.actuator.model import build_model
+    from hydrojam.actuator.simulate import simulate
+
+    mu0 = default_design().hydrogel.params().mu0
+    design = design_from_dict({**THREE, "stimulus": {"mu": mu0, "temperature": IDLE},
+                               "chambers": [{"temperature": ACTIVE if k in active else IDLE} for k in range(3)]})
+    result = simulate(build_model(design))
+    assert result.metrics["converged"], active
+    return result.metrics
+
+
+def _plane_gap_deg(a: float, b: float) -> float:
+    """The angle between two directions in x-y [deg], in [0, 180]."""
+    return abs((a - b + 180.0) % 360.0 - 180.0)
+
+
+@pytest.mark.slow
+def test_the_activated_chambers_pick_the_bending_plane():
+    """Chamber 1 (at 120 deg) activated alone: the actuator bends away from it, in its plane,
+    toward -60 deg; chambers 0 and 1 activated: away from both, in the plane bisecting them,
+    toward -120 deg; all three activated alike: straight.
+
+    Tolerances from the mesh: quadratic elements' strains err by O((h/d)^2) (h = mesh.size, d the
+    particle diameter), and so does the swing they drive, so a swing of theta may lean out of its
+    plane by up to theta (h/d)^2, a plane tolerance of (h/d)^2 rad (3.6 deg at h/d = 1/4); three
+    chambers activated alike cancel to within the error of one chamber's swing, theta_1 (h/d)^2.
+    The mesh has the design's symmetry node for node (:func:`turned_copies`), so what is
+    measured is far inside these: the solver's tolerance (docs/chambers.md)."""
+    ratio = (THREE["mesh"]["size"] / 16.0) ** 2
+    one, two, three = _run({1}), _run({0, 1}), _run({0, 1, 2})
+    for name, m in (("one", one), ("two", two), ("three", three)):
+        print(name, {k: m[k] for k in ("bending_angle_deg", "bending_plane_deg", "twist_deg", "tip_dx_mm",
+                                      "tip_dy_mm", "tip_dz_mm", "newton_iterations", "wall_time_s")})
+    assert one["bending_angle_deg"] > 0.1 and two["bending_angle_deg"] > 0.1
+    assert _plane_gap_deg(one["bending_plane_deg"], -60.0) <= math.degrees(ratio), one
+    assert _plane_gap_deg(two["bending_plane_deg"], -120.0) <= math.degrees(ratio), two
+    assert abs(three["bending_angle_deg"]) <= one["bending_angle_deg"] * ratio, three
+
+
+def test_the_example_is_three_chambers_with_the_second_cooled():
+    """examples/three_chambers.toml (docs/chambers.md): three chambers round the axis, the
+    solvent at the gel's as-prepared mu0, chamber 1 at 295 K and the others at 300 K."""
+    from pathlib import Path
+
+    from hydrojam.actuator.design import load_design
+
+    d = load_design(Path(__file__).parents[2] / "examples" / "three_chambers.toml")
+    assert d.round_axis and not d.mesh.symmetry and d.resolved_strain_limit_position == "none"
+    assert d.stimulus.mu == pytest.approx(d.hydrogel.params().mu0, abs=1e-12)
+    assert [ch.temperature for ch in d.resolved_chambers] == [300.0, 295.0, 300.0]
+
+
+def _share(img, test) -> float:
+    rgb = img[..., :3].astype(int)
+    return float(test(rgb[..., 0], rgb[..., 1], rgb[..., 2]).mean())
+
+
+def _blue(r, g, b):
+    return (b > r + 60) & (b > g + 20)
+
+
+def _orange(r, g, b):
+    return (r > b + 80) & (r > g + 20)
+
+
+def _green(r, g, b):
+    return (g > r + 30) & (g > b + 15)
+
+
+def _as_prepared(model):
+    from hydrojam.actuator.model import measure
+    from hydrojam.actuator.simulate import StepState
+
+    X = np.array(model.mesh.points)
+    return StepState(index=0, s=0.0, mu=model.design.stimulus.mu, T=300.0, x=X, metrics=measure(model, X),
+                     iterations=0, wall_time_s=0.0)
+
+
+def test_each_chambers_gel_is_coloured_apart(tmp_path):
+    """final.png of two chambers (2D) shows the first chamber's gel blue and the second's orange;
+    the 3D render of three chambers round the axis shows all three colour maps (the third
+    green). As-prepared states: no solver."""
+    from PIL import Image
+
+    from hydrojam.actuator.model import build_model
+    from hydrojam.actuator.plots import plot_actuator
+    from hydrojam.actuator.render import renders_available
+
+    two = build_model(design_from_dict({"particle_layers": 1, "strain_limit_position": "none", "mesh": {"size": 4.0},
+                                        "chambers": [{}, {}]}))
+    plot_actuator(two, _as_prepared(two), tmp_path / "two.png")
+    img = np.asarray(Image.open(tmp_path / "two.png").convert("RGB"))
+    assert _share(img, _blue) > 0.005 and _share(img, _orange) > 0.005
+    if not renders_available(say=False):
+        pytest.skip("PyVista (the extra 'render') is not installed")
+    from hydrojam.actuator.render import render_state
+    from hydrojam.actuator.results import vtu_mesh
+
+    three = build_model(design_from_dict(THREE))
+    mesh = vtu_mesh(three, _as_prepared(three))
+    assert sorted(np.unique(mesh.cell_data["chamber"][0])) == [-1, 0, 1, 2]
+    img = render_state(mesh, size=(400, 360))
+    for colour in (_blue, _orange, _green):
+        assert _share(img, colour) > 0.002, colour.__name__

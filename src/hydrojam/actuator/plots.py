@@ -154,8 +154,11 @@ def plot_actuator(model, state, path: str | os.PathLike, render: np.ndarray | No
     ax.set_ylabel("z [mm]")
     if len(bars) == 1:
         fig.colorbar(bars[0][0], ax=ax, shrink=0.8, label=bars[0][1])
-    for pc, label in bars if len(bars) > 1 else ():  # narrow bars side by side
-        fig.colorbar(pc, ax=ax, shrink=0.8, label=label, fraction=0.15 / len(bars), pad=0.02)
+    for k, (pc, label) in reversed(list(enumerate(bars if len(bars) > 1 else ()))):
+        # one thin bar a chamber, stacked below, chamber 0 on top (each bar is placed right under
+        # the axes, pushing the ones before it down): the top one clears the axis label
+        fig.colorbar(pc, ax=ax, orientation="horizontal", shrink=0.8, label=label, fraction=0.04,
+                     pad=0.14 if k == 0 else 0.07, aspect=40)
     m = state.metrics
     where = "3D, section y = 0; " if mesh.dim == 3 else ""
     ax.set_title(f"{where}T = {state.T:.1f} K, mu = {state.mu:.3g} kT, s = {state.s:.3g}\n"

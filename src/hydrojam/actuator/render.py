@@ -248,9 +248,9 @@ class Renderer:
                 mesh = mesh.cell_data_to_point_data()
                 p.add_mesh(mesh, scalars=name, cmap=chamber_cmap(int(k)), clim=clim, smooth_shading=True,
                            render=False, show_scalar_bar=scale_bar,
-                           scalar_bar_args={"title": name, "vertical": False, "width": 0.8 / len(chambers),
+                           scalar_bar_args={"title": name, "vertical": False, "width": 0.6 / len(chambers),
                                             "height": 0.08, "position_x": 0.1 + 0.8 * i / len(chambers),
-                                            "position_y": 0.05, "fmt": "%.2f", "n_labels": 3,
+                                            "position_y": 0.05, "fmt": "%.2f", "n_labels": 2,
                                             "title_font_size": 16, "label_font_size": 14, "color": "black"})
         elif gel.any():
             mesh = _poly(pv, surf.points, surf.triangles[gel])
