@@ -89,13 +89,20 @@ def test_a_core_needs_three_chambers():
 
 def test_the_keys_of_designs_without_three_chambers_are_unchanged():
     """The layout comes from the count of chambers, so no field is added: the default designs and
-    a two-chamber design keep the keys they had before three chambers existed."""
+    two-chamber designs keep the keys they had before three chambers existed (computed with the
+    code before them)."""
     d = default_design()
     assert design_key(d) == "894a189094082666"
     assert design_key(d.model_copy(update={"dimension": 3})) == "294500bf73f76013"
-    two = design_from_dict({"particle_layers": 2, "strain_limit_position": "none", "mesh": {"size": 4.0},
-                            "chambers": [{}, {}]})
-    assert not two.round_axis and two.resolved_strain_limit_position == "none"
+    # two-chamber designs of tests/actuator/test_chambers.py: the keys they had before
+    shifted = {"A0": -12.947 + 0.04496 * 10.0, "A1": 17.92 - 0.0569 * 10.0, "T0": 290.0}
+    two = {"particle_layers": 2, "strain_limit_position": "none", "mesh": {"size": 4.0},
+           "chambers": [{}, {"hydrogel": shifted}]}
+    assert design_key(design_from_dict(two)) == "ccdd1364c2880242"
+    assert design_key(design_from_dict({**two, "dimension": 3, "strain_limit_position": "middle"})) == "58552f9a56228d7a"
+    plain = design_from_dict({"particle_layers": 1, "mesh": {"size": 4.0}, "chambers": [{}, {}]})
+    assert design_key(plain) == "7d27acbabbe13392"
+    assert not plain.round_axis and plain.resolved_strain_limit_position == "-x"
 
 
 # ------------------------------------------------------------------------------------------------ geometry
@@ -288,3 +295,26 @@ def test_each_chambers_gel_is_coloured_apart(tmp_path):
     img = render_state(mesh, size=(400, 360))
     for colour in (_blue, _orange, _green):
         assert _share(img, colour) > 0.002, colour.__name__
+
+
+@pytest.mark.parametrize("plane", [180.0, -60.0, 60.0, 137.0])
+def test_a_swing_in_any_plane_reads_as_a_bend_toward_minus_x_once_turned(plane):
+    """turned_to_plane carries the direction ``plane`` in x-y onto -x, a proper rotation about z:
+    a face swung by theta toward that direction reads the bending angle +theta in the x-z plane
+    (bending_angle_3d_deg), and lengths and z are kept. Rotations composed in closed form, so
+    the tolerance is the round-off of the positions over the face's size (1e-10 rad)."""
+    from hydrojam.actuator.metrics import bending_angle_3d_deg, turned_to_plane
+
+    phi, theta = math.radians(plane), math.radians(25.0)
+    g = np.linspace(-5.0, 5.0, 4)
+    X = np.array([(x, y, -30.0) for x in g for y in g])
+    axis = np.array([math.sin(phi), -math.cos(phi), 0.0])  # swings -e_z toward (cos phi, sin phi, 0)
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    R = np.eye(3) + math.sin(theta) * K + (1 - math.cos(theta)) * K @ K
+    x = (X - X.mean(axis=0)) @ R.T + X.mean(axis=0)
+    Xt, xt = turned_to_plane(X, plane), turned_to_plane(x, plane)
+    assert np.allclose(np.linalg.norm(Xt[:, :2], axis=1), np.linalg.norm(X[:, :2], axis=1), atol=1e-12)
+    assert np.array_equal(Xt[:, 2], X[:, 2])
+    direction = turned_to_plane(np.array([[math.cos(phi), math.sin(phi), 0.0]]), plane)[0]
+    assert direction == pytest.approx([-1.0, 0.0, 0.0], abs=1e-12)
+    assert bending_angle_3d_deg(Xt, xt) == pytest.approx(25.0, abs=math.degrees(1e-10))

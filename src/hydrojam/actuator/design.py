@@ -393,7 +393,8 @@ class Design(BaseModel):
         None, gt=0, le=MAX_CAVITY_MM, description="cavity length along the axis z; omitted: PL d + (PL + 1) c [mm]"
     )
     cavity_depth: float | None = Field(
-        None, gt=0, le=MAX_CAVITY_MM, description="cavity depth along y, 3D only; omitted: d + 2 c [mm]"
+        None, gt=0, le=MAX_CAVITY_MM, description="cavity depth along y, 3D only (three chambers round the axis: each "
+        "cylindrical cavity's diameter); omitted: d + 2 c [mm]"
     )
     friction: float = Field(
         0.01,
