@@ -24,11 +24,14 @@ THREE = {"dimension": 3, "particle_layers": 1, "mesh": {"size": 4.0, "symmetry":
 
 
 def test_three_chambers_lie_round_the_axis_and_round_trip():
-    """The layout: cavities of diameter D = d + 2c at r_c = (D + t_w)/sqrt(3) from the axis (the
-    wall between neighbours t_w at its thinnest), the body's radius r_c + D/2 + t0; with a core of
-    diameter h, r_c grows to keep t_w between each cavity and the core."""
+    """The layout: cavities of diameter D = d + 2c, drawn wider by twice the sagitta of a chord
+    mesh.size/2 long, at r_c = (D + t_w)/sqrt(3) from the axis (the wall between neighbours t_w
+    at its thinnest), the body's radius r_c + D/2 + t0; with a core of diameter h, r_c grows to
+    keep t_w between each cavity and the core."""
     d = design_from_dict(THREE)
-    D = 16.0 + 2 * 0.1
+    assert d.resolved_cavity_depth == pytest.approx(16.0 + 2 * 0.1)
+    D = 16.2 + 2 * 2.0**2 / (4 * 16.2)
+    assert d.round_cavity_diameter == pytest.approx(D)
     assert d.round_axis and d.resolved_strain_limit_position == "none"
     assert d.chamber_radius == pytest.approx((D + 2.0) / math.sqrt(3.0))
     assert d.outer_radius == pytest.approx(d.chamber_radius + D / 2 + 2.0) and d.width == 2 * d.outer_radius
@@ -129,7 +132,7 @@ def test_three_chamber_geometry(where):
 
     d = design_from_dict({**THREE, "strain_limit_position": where}).resolved()
     mesh = actuator_3d_round(d)
-    L, R, D, lc, h = d.length, d.outer_radius, d.resolved_cavity_depth, d.resolved_cavity_length, \
+    L, R, D, lc, h = d.length, d.outer_radius, d.round_cavity_diameter, d.resolved_cavity_length, \
         d.strain_limit_thickness
     cavities = 3 * math.pi * D**2 / 4 * lc
     core = math.pi * h**2 / 4 * L if where == "core" else 0.0
@@ -168,6 +171,26 @@ def test_three_chamber_geometry(where):
         # the plane; along it, unevenly spaced nodes put the mean within a mesh size of the centre
         assert abs(centre[0] * e[1] - centre[1] * e[0]) < tol
         assert centre[:2] @ e == pytest.approx(d.chamber_radius, abs=d.mesh.size)
+
+
+def test_nothing_moves_at_the_as_prepared_stimulus_with_a_core():
+    """Three chambers round a core at their as-prepared stimulus (mu0, T0): stress-free and
+    contact-free, so no node moves (the bound of tests/actuator/undeformed.py) and the free end
+    neither swings nor twists: the model (bodies, core, contact, centreline) is built right."""
+    from undeformed import assert_nothing_moved
+
+    from hydrojam.actuator.model import build_model
+    from hydrojam.actuator.simulate import simulate
+
+    gel = default_design().hydrogel
+    model = build_model(design_from_dict({**THREE, "strain_limit_position": "core",
+                                          "stimulus": {"mu": gel.mu0, "temperature": gel.T0}}))
+    assert "strain_limit_layer" in model.solid.block_names
+    res = simulate(model)
+    drift = assert_nothing_moved(model, res)
+    m = res.metrics
+    assert m["bending_plane_deg"] is None and abs(m["twist_deg"]) < math.degrees(2 * drift / model.design.width)
+    assert abs(m["tip_dy_mm"]) < drift
 
 
 def test_each_chamber_takes_its_own_temperature():

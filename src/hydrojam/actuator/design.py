@@ -488,12 +488,25 @@ class Design(BaseModel):
         return self.chambers is not None and len(self.chambers) == ROUND_AXIS_CHAMBERS
 
     @property
+    def round_cavity_diameter(self) -> float:
+        """Three chambers round the axis: the diameter [mm] each cylindrical cavity is drawn with,
+        cavity_depth D widened by twice the sagitta of a chord mesh.size/2 long on its radius,
+        D + 2 (h/2)^2 / (4 D) (h = mesh.size). The contact sees the quadratic faces as their
+        straight pieces, about h/2 across, which lie that far inside the cylinder: drawn at D, they
+        would eat into the clearance (at h = 4 mm, D = 16.2 mm, the gap to the sphere measured
+        0.069 mm for a clearance of 0.1 mm, under the barrier's reach of 0.08 mm, so that the
+        as-prepared state was not stress-free)."""
+        D, h = self.resolved_cavity_depth, self.mesh.size
+        return D + 2.0 * (h / 2.0) ** 2 / (4.0 * D)
+
+    @property
     def chamber_radius(self) -> float:
         """Three chambers round the axis: the distance r_c of each cylindrical cavity's axis from the
-        actuator's [mm]. The wall between neighbouring cavities (diameter D = cavity_depth) is
-        chamber_wall_thickness t_w thick at its thinnest, r_c = (D + t_w) / sqrt(3); with a core of
-        diameter h, each cavity also keeps t_w from the core, r_c >= D/2 + t_w + h/2."""
-        D, t_w = self.resolved_cavity_depth, self.resolved_chamber_wall
+        actuator's [mm]. The wall between neighbouring cavities (drawn diameter D,
+        :attr:`round_cavity_diameter`) is chamber_wall_thickness t_w thick at its thinnest,
+        r_c = (D + t_w) / sqrt(3); with a core of diameter h, each cavity also keeps t_w from the
+        core, r_c >= D/2 + t_w + h/2."""
+        D, t_w = self.round_cavity_diameter, self.resolved_chamber_wall
         r_c = (D + t_w) / math.sqrt(3.0)
         if self.resolved_strain_limit_position == "core":
             r_c = max(r_c, D / 2 + t_w + self.strain_limit_thickness / 2)
@@ -501,8 +514,9 @@ class Design(BaseModel):
 
     @property
     def outer_radius(self) -> float:
-        """Three chambers round the axis: the body's radius R = r_c + D/2 + side_wall_thickness [mm]."""
-        return self.chamber_radius + self.resolved_cavity_depth / 2 + self.side_wall_thickness
+        """Three chambers round the axis: the body's radius R = r_c + D/2 + side_wall_thickness [mm]
+        (D the drawn diameter, :attr:`round_cavity_diameter`)."""
+        return self.chamber_radius + self.round_cavity_diameter / 2 + self.side_wall_thickness
 
     @property
     def resolved_chamber_wall(self) -> float:

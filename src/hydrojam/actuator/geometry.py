@@ -331,7 +331,8 @@ def actuator_3d_round(design: Design, order: int = 2) -> Mesh:
     tetrahedra, lengths in mm.
 
     The body is the cylinder r <= R (:attr:`Design.outer_radius`), z in [-L, 0]; chamber k's
-    cavity the cylinder of diameter D = ``resolved_cavity_depth`` about the line at r_c
+    cavity the cylinder of diameter D (:attr:`Design.round_cavity_diameter`: ``resolved_cavity_depth``
+    widened so that the contact's straight pieces of its faces keep the clearance) about the line at r_c
     (:attr:`Design.chamber_radius`) in the direction 120 k deg from +x toward +y
     (:func:`chamber_angles_deg`), z in [-t1 - cavity_length, -t1]; with ``strain_limit_position``
     "core", the rod r <= h/2 of the strain-limit elastomer, bonded to the membrane; its particles
@@ -348,7 +349,7 @@ def actuator_3d_round(design: Design, order: int = 2) -> Mesh:
     """
     lc, t0, t1, h = design.resolved_cavity_length, design.side_wall_thickness, design.end_wall_thickness, \
         design.strain_limit_thickness
-    D, r_c, R = design.resolved_cavity_depth, design.chamber_radius, design.outer_radius
+    D, r_c, R = design.round_cavity_diameter, design.chamber_radius, design.outer_radius
     length = lc + 2 * t1
     core = design.resolved_strain_limit_position == "core"
     centres, radii, counts = round_axis_particles(design)
