@@ -312,12 +312,14 @@ def test_each_chambers_gel_is_coloured_apart(tmp_path):
     plot_actuator(two, _as_prepared(two), tmp_path / "two.png")
     img = np.asarray(Image.open(tmp_path / "two.png").convert("RGB"))
     assert _share(img, _blue) > 0.005 and _share(img, _orange) > 0.005
+    three = build_model(design_from_dict(THREE))
+    plot_actuator(three, _as_prepared(three), tmp_path / "three.png")  # the section y = 0: chamber 0
+    assert _share(np.asarray(Image.open(tmp_path / "three.png").convert("RGB")), _blue) > 0.005
     if not renders_available(say=False):
         pytest.skip("PyVista (the extra 'render') is not installed")
     from hydrojam.actuator.render import render_state
     from hydrojam.actuator.results import vtu_mesh
 
-    three = build_model(design_from_dict(THREE))
     mesh = vtu_mesh(three, _as_prepared(three))
     assert sorted(np.unique(mesh.cell_data["chamber"][0])) == [-1, 0, 1, 2]
     img = render_state(mesh, size=(400, 360))

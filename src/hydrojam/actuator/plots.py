@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 
 from hydrojam._io import atomic_path
 from hydrojam.actuator.fields import cell_fields
-from hydrojam.actuator.metrics import centreline_profile
+from hydrojam.actuator.metrics import centreline_profile, turned_to_plane
 from hydrojam.actuator.model import PARTICLE_BODY
 from hydrojam.fem.elements import ELEMENTS, straight_pieces
 
@@ -165,7 +165,12 @@ def plot_actuator(model, state, path: str | os.PathLike, render: np.ndarray | No
                  f"bending angle {m['bending_angle_deg']:.1f} deg, tip dx {m['tip_dx_mm']:.1f} mm, "
                  f"dz {m['tip_dz_mm']:.1f} mm", fontsize=10)
     cl = model.centreline_nodes
-    prof = centreline_profile(X[cl], x[cl])
+    if model.design.round_axis:  # the profile in the bending plane, as the metrics read it
+        plane = m.get("bending_plane_deg")
+        P, p = (turned_to_plane(q, 180.0 if plane is None else plane)[:, [0, 2]] for q in (mesh.points, state.x))
+        prof = centreline_profile(P[cl], p[cl])
+    else:
+        prof = centreline_profile(X[cl], x[cl])
     ax2.plot(prof.reference_arc_length, prof.curvature * 1e3, "-", color="C0")
     ax2.axhline(0.0, color="0.6", lw=0.7)
     k_max = float(np.max(np.abs(prof.curvature))) * 1e3
@@ -175,7 +180,7 @@ def plot_actuator(model, state, path: str | os.PathLike, render: np.ndarray | No
     toward = "the strain-limit layer)" if chambers is None else "-x)"
     line = "strain-limit layer mid-line" if chambers is None else "shared wall's mid-line"
     if model.design.round_axis:
-        toward, line = "-x; section y = 0)", "axis"
+        toward, line = "the bending plane)", "axis, in the bending plane"
     ax2.set_ylabel("centreline curvature [1/m]  (> 0: toward " + toward)
     ci = m.get("curling_index")
     ax2.set_title(line + ("" if ci is None else f", curling index {ci:.2f}"), fontsize=10)
