@@ -136,6 +136,12 @@ BAD_DESIGNS = [
     ("[[chambers]]\n[[chambers]]\n[[chambers]]\n", "chambers: 2D takes 2 chambers"),
     ("[[chambers]]\n[[chambers]]\ntemperature = 380.0\n", "chambers.1.temperature: must be <= 373.15"),
     ("[[chambers]]\ncavity_width = 12.0\n[[chambers]]\n", "chambers.0.cavity_width: chamber 0's particles do not fit"),
+    # three chambers round the axis: only the whole 3D actuator, one column of equal spheres each
+    ("dimension = 3\n[[chambers]]\n[[chambers]]\n[[chambers]]\n", "mesh.symmetry: must be false with three chambers"),
+    ("dimension = 3\nstrain_limit_position = \"-x\"\n[mesh]\nsymmetry = false\n[[chambers]]\n[[chambers]]\n"
+     "[[chambers]]\n", "strain_limit_position: with three chambers round the axis allowed: 'none', 'core'"),
+    ("dimension = 3\nchamber_wall_thickness = 0.5\n[mesh]\nsymmetry = false\n[[chambers]]\n[[chambers]]\n"
+     "[[chambers]]\n", "chamber_wall_thickness: too thin for mesh.size 2 mm"),
 ]
 
 

@@ -76,7 +76,7 @@ def test_chambers_resolve_from_the_design_and_round_trip():
         ({"chambers": [{}, {"hydrogel": {"A0": float("nan")}}]}, ["chambers.1.hydrogel.A0", "finite"]),
         ({"chambers": [{}, {"colour": 1}]}, ["chambers.1.colour: unknown key"]),
         ({"strain_limit_position": "top"}, ["strain_limit_position", "'-x'", "'middle'"]),
-        ({"dimension": 3, "chambers": [{}, {}, {}]}, ["chambers: 3D takes 2 chambers", "not yet simulated"]),
+        ({"dimension": 3, "chambers": [{}, {}, {}, {}]}, ["chambers: 3D takes 2 chambers", "or 3 round the axis"]),
         ({"dimension": 3, "chambers": [{}, {"particle_diameter": 20.0}], "cavity_depth": 17.0},
          ["cavity_depth: chamber 1's particles do not fit", ">= 20.2 mm"]),
         ({"dimension": 3, "strain_limit_width": 8.0}, ["strain_limit_width: not with chambers"]),

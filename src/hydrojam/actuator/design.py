@@ -34,6 +34,7 @@ __all__ = [
     "DEFAULT_MESH_SIZE_MM",
     "MAX_CAVITY_MM",
     "MAX_CHAMBERS_2D",
+    "ROUND_AXIS_CHAMBERS",
     "ChamberSpec",
     "MAX_ELEMENTS",
     "MAX_WALL_MM",
@@ -299,8 +300,11 @@ class ReplicaSpec(BaseModel):
 
 #: most chambers of a design: two side by side along x in 2D
 MAX_CHAMBERS_2D = 2
-#: where a multi-chamber design's strain-limit layer goes
-STRAIN_LIMIT_POSITIONS = ("-x", "+x", "middle", "none")
+#: the number of chambers that are laid round the actuator's axis, 120 deg apart (3D, the whole
+#: actuator): the count of [[chambers]] tables picks the layout (two: side by side along x)
+ROUND_AXIS_CHAMBERS = 3
+#: where a multi-chamber design's strain-limit layer goes ("core": three chambers round the axis only)
+STRAIN_LIMIT_POSITIONS = ("-x", "+x", "middle", "none", "core")
 
 
 class ChamberSpec(BaseModel):
@@ -383,10 +387,11 @@ class Design(BaseModel):
         None, gt=0, le=MAX_WALL_MM,
         description="with chambers: the shared wall between neighbouring chambers; omitted: side_wall_thickness [mm]",
     )
-    strain_limit_position: Literal["-x", "+x", "middle", "none"] | None = Field(
+    strain_limit_position: Literal["-x", "+x", "middle", "none", "core"] | None = Field(
         None,
-        description="with chambers: the strain-limit layer on the -x or +x outer face, as the middle wall "
-        "(of thickness chamber_wall_thickness), or none; omitted: -x",
+        description="with chambers: two side by side: the strain-limit layer on the -x or +x outer face, as the "
+        "middle wall (of thickness chamber_wall_thickness), or none; omitted: -x. Three round the axis: none, "
+        "or core (a rod of diameter strain_limit_thickness on the axis); omitted: none",
     )
     cavity_width: float | None = Field(
         None,
@@ -397,7 +402,8 @@ class Design(BaseModel):
         None, gt=0, le=MAX_CAVITY_MM, description="cavity length along the axis z; omitted: PL d + (PL + 1) c [mm]"
     )
     cavity_depth: float | None = Field(
-        None, gt=0, le=MAX_CAVITY_MM, description="cavity depth along y, 3D only; omitted: d + 2 c [mm]"
+        None, gt=0, le=MAX_CAVITY_MM, description="cavity depth along y, 3D only (three chambers round the axis: each "
+        "cylindrical cavity's diameter); omitted: d + 2 c [mm]"
     )
     friction: float = Field(
         0.01,
@@ -430,8 +436,9 @@ class Design(BaseModel):
     )
     chambers: tuple[ChamberSpec, ...] | None = Field(
         None,
-        description="two chambers side by side along x ([[chambers]] tables, the first on the -x side), "
-        "each with its particles, gel and temperature; omitted: one chamber (docs/chambers.md)",
+        description="two chambers side by side along x ([[chambers]] tables, the first on the -x side), or three "
+        "round the axis z, 120 deg apart (3D, mesh.symmetry = false; the first on +x, then toward +y), each "
+        "with its particles, gel and temperature; omitted: one chamber (docs/chambers.md)",
     )
 
     @model_validator(mode="before")
@@ -476,11 +483,49 @@ class Design(BaseModel):
             m = self.particles_per_layer if ch.particles_per_layer is None else ch.particles_per_layer
             d = self.particle_diameter if ch.particle_diameter is None else ch.particle_diameter
             w = m * d + (m + 1) * self.clearance if ch.cavity_width is None else ch.cavity_width
+            if self.round_axis:  # a cylindrical cavity of diameter cavity_depth: no width along x
+                w = ch.cavity_width
             out.append(ChamberSpec(
                 particle_layers=pl, particles_per_layer=m, particle_diameter=d, cavity_width=w,
                 temperature=self.stimulus.temperature if ch.temperature is None else ch.temperature,
                 hydrogel=self.hydrogel if ch.hydrogel is None else ch.hydrogel))
         return tuple(out)
+
+    @property
+    def round_axis(self) -> bool:
+        """Three chambers round the axis (:data:`ROUND_AXIS_CHAMBERS` [[chambers]] tables), 120 deg apart."""
+        return self.chambers is not None and len(self.chambers) == ROUND_AXIS_CHAMBERS
+
+    @property
+    def round_cavity_diameter(self) -> float:
+        """Three chambers round the axis: the diameter [mm] each cylindrical cavity is drawn with,
+        cavity_depth D widened by twice the sagitta of a chord mesh.size/2 long on its radius,
+        D + 2 (h/2)^2 / (4 D) (h = mesh.size). The contact sees the quadratic faces as their
+        straight pieces, about h/2 across, which lie that far inside the cylinder: drawn at D, they
+        would eat into the clearance (at h = 4 mm, D = 16.2 mm, the gap to the sphere measured
+        0.069 mm for a clearance of 0.1 mm, under the barrier's reach of 0.08 mm, so that the
+        as-prepared state was not stress-free)."""
+        D, h = self.resolved_cavity_depth, self.mesh.size
+        return D + 2.0 * (h / 2.0) ** 2 / (4.0 * D)
+
+    @property
+    def chamber_radius(self) -> float:
+        """Three chambers round the axis: the distance r_c of each cylindrical cavity's axis from the
+        actuator's [mm]. The wall between neighbouring cavities (drawn diameter D,
+        :attr:`round_cavity_diameter`) is chamber_wall_thickness t_w thick at its thinnest,
+        r_c = (D + t_w) / sqrt(3); with a core of diameter h, each cavity also keeps t_w from the
+        core, r_c >= D/2 + t_w + h/2."""
+        D, t_w = self.round_cavity_diameter, self.resolved_chamber_wall
+        r_c = (D + t_w) / math.sqrt(3.0)
+        if self.resolved_strain_limit_position == "core":
+            r_c = max(r_c, D / 2 + t_w + self.strain_limit_thickness / 2)
+        return r_c
+
+    @property
+    def outer_radius(self) -> float:
+        """Three chambers round the axis: the body's radius R = r_c + D/2 + side_wall_thickness [mm]
+        (D the drawn diameter, :attr:`round_cavity_diameter`)."""
+        return self.chamber_radius + self.round_cavity_diameter / 2 + self.side_wall_thickness
 
     @property
     def resolved_chamber_wall(self) -> float:
@@ -489,8 +534,11 @@ class Design(BaseModel):
 
     @property
     def resolved_strain_limit_position(self) -> str:
-        """Where the strain-limit layer lies: "-x" (the single chamber's), "+x", "middle" or "none"."""
-        return "-x" if self.strain_limit_position is None else self.strain_limit_position
+        """Where the strain-limit layer lies: "-x" (the single chamber's), "+x", "middle" or "none";
+        three chambers round the axis: "none" (their default) or "core"."""
+        if self.strain_limit_position is None:
+            return "none" if self.round_axis else "-x"
+        return self.strain_limit_position
 
     @property
     def resolved_cavity_depth(self) -> float:
@@ -510,7 +558,10 @@ class Design(BaseModel):
     @property
     def width(self) -> float:
         """Actuator width along x, h + 2 t0 + cavity_width [mm]; with chambers the cavities' widths,
-        the shared wall, 2 t0 and h where the strain-limit layer lies on an outer face."""
+        the shared wall, 2 t0 and h where the strain-limit layer lies on an outer face; three chambers
+        round the axis: the body's diameter 2 R (:attr:`outer_radius`)."""
+        if self.round_axis:
+            return 2.0 * self.outer_radius
         if self.chambers is not None:
             outer = self.strain_limit_thickness if self.resolved_strain_limit_position in ("-x", "+x") else 0.0
             return (sum(ch.cavity_width for ch in self.resolved_chambers) + self.resolved_chamber_wall
@@ -534,6 +585,8 @@ class Design(BaseModel):
             return area / (math.sqrt(3.0) / 4.0 * h * h)
         depth = self.resolved_cavity_depth + 2.0 * self.side_wall_thickness
         volume = area * depth * (0.5 if self.mesh.symmetry else 1.0)
+        if self.round_axis:  # a cylinder, the whole actuator
+            volume = math.pi * self.outer_radius**2 * self.length
         return volume / (h**3 / (6.0 * math.sqrt(2.0)))
 
     def resolved(self) -> Design:
@@ -572,9 +625,14 @@ class Design(BaseModel):
         if self.dimension == 2 and not n == MAX_CHAMBERS_2D:
             raise ValueError(f"chambers: 2D takes {MAX_CHAMBERS_2D} chambers side by side along x (three round the "
                              f"axis would need dimension = 3; got {n})")
-        if self.dimension == 3 and not n == 2:
-            raise ValueError(f"chambers: 3D takes 2 chambers side by side along x at present (three round the "
-                             f"axis are not yet simulated; got {n})")
+        if self.dimension == 3 and n not in (MAX_CHAMBERS_2D, ROUND_AXIS_CHAMBERS):
+            raise ValueError(f"chambers: 3D takes {MAX_CHAMBERS_2D} chambers side by side along x or "
+                             f"{ROUND_AXIS_CHAMBERS} round the axis (got {n})")
+        if self.round_axis:
+            self._check_round_axis()
+        elif self.strain_limit_position == "core":
+            raise ValueError("strain_limit_position: 'core' only with three chambers round the axis (two side by "
+                             "side take '-x', '+x', 'middle' or 'none'; got 'core')")
         if self.strain_limit_width is not None:
             raise ValueError(f"strain_limit_width: not with chambers (the strain-limit layer spans its face; got "
                              f"strain_limit_width {_g(self.strain_limit_width)} mm)")
@@ -596,7 +654,9 @@ class Design(BaseModel):
             if h > d / 4.0:
                 raise ValueError(f"mesh.size: must be <= {where}.particle_diameter/4 = {_g(d / 4.0)} mm so that "
                                  f"about 12 quadratic edges or more go round a particle (got {_g(h)} mm)")
-            fits = [("cavity_width", m, ch.cavity_width), ("cavity_length", pl, length)]
+            fits = [("cavity_length", pl, length)]
+            if not self.round_axis:  # round the axis, the cylinder's diameter is cavity_depth
+                fits.insert(0, ("cavity_width", m, ch.cavity_width))
             if self.dimension == 3:
                 fits.append(("cavity_depth", 1, depth))
             for name, count, size in fits:
@@ -615,6 +675,33 @@ class Design(BaseModel):
             raise ValueError(
                 f"chamber_wall_thickness: too thin for mesh.size {_g(h)} mm: must be >= {_g(2 * MIN_WALL_PER_MESH * h)} "
                 f"mm (it is meshed in two halves, each >= mesh.size/4), else its elements are slivers (got {_g(wall)} mm)")
+
+    def _check_round_axis(self) -> None:
+        """The checks of three chambers round the axis (before their particles' fit)."""
+        if self.mesh.symmetry:
+            raise ValueError("mesh.symmetry: must be false with three chambers round the axis (each chamber is "
+                             "activated on its own, so no plane y = 0 halves the actuator: the whole actuator is "
+                             "meshed; got true)")
+        if self.strain_limit_position not in (None, "none", "core"):
+            raise ValueError(f"strain_limit_position: with three chambers round the axis allowed: 'none', 'core' "
+                             f"(a rod on the axis; got {self.strain_limit_position!r})")
+        for k, ch in enumerate(self.chambers):
+            if ch.cavity_width is not None:
+                raise ValueError(f"chambers.{k}.cavity_width: not with three chambers round the axis: each cavity is "
+                                 f"a cylinder of diameter cavity_depth (got {_g(ch.cavity_width)} mm)")
+        chambers = self.resolved_chambers
+        for k, ch in enumerate(chambers):
+            if ch.particles_per_layer != 1:
+                field = f"chambers.{k}.particles_per_layer" if self.chambers[k].particles_per_layer is not None \
+                    else "particles_per_layer"
+                raise ValueError(f"{field}: must be 1 with three chambers round the axis (each cylindrical cavity "
+                                 f"holds one column of spheres; got {ch.particles_per_layer})")
+            for name, unit in (("particle_layers", ""), ("particle_diameter", " mm")):
+                mine, first = getattr(ch, name), getattr(chambers[0], name)
+                if mine != first:
+                    raise ValueError(f"chambers.{k}.{name}: three chambers round the axis hold the same particles "
+                                     f"(one sector of the mesh is turned round the axis): must equal chamber 0's "
+                                     f"{_g(first)}{unit} (got {_g(mine)}{unit})")
 
     @property
     def helix_angle_deg(self) -> float:

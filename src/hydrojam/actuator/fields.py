@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel
+from hydrojam.actuator.model import MEMBRANE, STRAIN_LIMIT_LAYER, ActuatorModel, particle_block
 
 
 def _plane_strain_3d(F: np.ndarray) -> np.ndarray:
@@ -20,7 +20,8 @@ def _plane_strain_3d(F: np.ndarray) -> np.ndarray:
 def cell_fields(model: ActuatorModel, x: np.ndarray, s: float) -> dict[str, np.ndarray]:
     """Cell data of a state at load parameter s: ``body_id``, ``swelling_ratio`` (gel J_dry =
     lambda0^3 det F; 1 in the elastomers), ``cauchy_stress`` (n, 3, 3) in (x, y, z) [MPa] and
-    ``von_mises_stress`` [MPa], averaged over each cell's quadrature points."""
+    ``von_mises_stress`` [MPa], averaged over each cell's quadrature points; a multi-chamber
+    design's also ``chamber``: the chamber of each particle cell (0, 1, ...), -1 in the walls."""
     n = model.mesh.n_cells
     sigma = np.zeros((n, 3, 3))
     swell = np.ones(n)
@@ -36,5 +37,11 @@ def cell_fields(model: ActuatorModel, x: np.ndarray, s: float) -> dict[str, np.n
             swell[cells] = np.mean(mat.params.lambda0**3 * J, axis=1)
     dev = sigma - np.trace(sigma, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
     vm = np.sqrt(1.5 * np.einsum("eij,eij->e", dev, dev))
-    return {"body_id": model.body_id.astype(np.int32), "swelling_ratio": swell,
-            "cauchy_stress": sigma, "von_mises_stress": vm}
+    out = {"body_id": model.body_id.astype(np.int32), "swelling_ratio": swell,
+           "cauchy_stress": sigma, "von_mises_stress": vm}
+    if model.chamber_gels:  # each chamber's gel told apart in the figures
+        chamber = np.full(n, -1, dtype=np.int32)
+        for k in range(len(model.chamber_gels)):
+            chamber[cells_of[particle_block(k)]] = k
+        out["chamber"] = chamber
+    return out

@@ -9,7 +9,7 @@ from dataclasses import replace
 import gmsh
 import numpy as np
 
-from hydrojam.actuator.design import Design
+from hydrojam.actuator.design import ROUND_AXIS_CHAMBERS, Design
 from hydrojam.fem.mesh import Mesh
 from hydrojam.fem.meshing import add_groups, bounding_box, generate, gmsh_session, set_mesh_size
 
@@ -304,10 +304,131 @@ def actuator_3d_chambers(design: Design, order: int = 2) -> Mesh:
         return _group_3d(body, sll, particles, [(a0, a1), (b0, b1)], D, lc, t1, length, tol, symmetry, order)
 
 
+def chamber_angles_deg(design: Design) -> list[float]:
+    """Three chambers round the axis: the direction in x-y of each cavity's axis from the
+    actuator's, from +x toward +y [deg]: 0, 120, 240, chamber by chamber."""
+    return [360.0 * k / ROUND_AXIS_CHAMBERS for k in range(ROUND_AXIS_CHAMBERS)]
+
+
+def round_axis_particles(design: Design) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Three chambers round the axis: particle centres (n, 3) [mm] and radii (n,) [mm], chamber by
+    chamber (:func:`chamber_angles_deg`) and within it layer by layer from the clamp, each
+    column on its cavity's axis, evenly spaced along it; and how many particles each chamber holds."""
+    lc, t1, r_c = design.resolved_cavity_length, design.end_wall_thickness, design.chamber_radius
+    centres, radii, counts = [], [], []
+    for ch, phi in zip(design.resolved_chambers, np.radians(chamber_angles_deg(design))):
+        d, pl = ch.particle_diameter, ch.particle_layers
+        gz = (lc - pl * d) / (pl + 1)
+        zs = -t1 - gz - d / 2 - np.arange(pl) * (d + gz)
+        centres += [(r_c * np.cos(phi), r_c * np.sin(phi), z) for z in zs]
+        radii += [d / 2] * pl
+        counts.append(pl)
+    return np.array(centres), np.array(radii), counts
+
+
+def actuator_3d_round(design: Design, order: int = 2) -> Mesh:
+    """Three chambers round the axis z (docs/chambers.md), the whole actuator, quadratic
+    tetrahedra, lengths in mm.
+
+    The body is the cylinder r <= R (:attr:`Design.outer_radius`), z in [-L, 0]; chamber k's
+    cavity the cylinder of diameter D (:attr:`Design.round_cavity_diameter`: ``resolved_cavity_depth``
+    widened so that the contact's straight pieces of its faces keep the clearance) about the line at r_c
+    (:attr:`Design.chamber_radius`) in the direction 120 k deg from +x toward +y
+    (:func:`chamber_angles_deg`), z in [-t1 - cavity_length, -t1]; with ``strain_limit_position``
+    "core", the rod r <= h/2 of the strain-limit elastomer, bonded to the membrane; its particles
+    spheres on the cavity's axis (:func:`round_axis_particles`).
+
+    Only the sixth 0 <= angle <= 60 deg is drawn and meshed (gmsh); it is mirrored about y = 0
+    and the sector so made turned by 120 and 240 deg, nodes on the planes between the copies
+    merged (:func:`turned_copies`). The mesh thus has the design's symmetry - three turns and
+    three mirror planes - node for node, the planes between chambers and through them are
+    surfaces of nodes, and the axis (the metrics' centreline) a line of nodes.
+
+    Cell groups "membrane", "strain_limit_layer" (with a core), "particle<k>" (chamber by chamber,
+    layer by layer); facet groups "clamp", "free_end", "cavity", "particle<k>_boundary".
+    """
+    lc, t0, t1, h = design.resolved_cavity_length, design.side_wall_thickness, design.end_wall_thickness, \
+        design.strain_limit_thickness
+    D, r_c, R = design.round_cavity_diameter, design.chamber_radius, design.outer_radius
+    length = lc + 2 * t1
+    core = design.resolved_strain_limit_position == "core"
+    centres, radii, counts = round_axis_particles(design)
+    wedge = math.pi / ROUND_AXIS_CHAMBERS  # half a sector
+    tol = 0.05 * min(t0, t1, design.resolved_chamber_wall, h if core else t0)
+    with gmsh_session():
+        set_mesh_size(design.mesh.size)
+        occ = gmsh.model.occ
+        outer = occ.addCylinder(0.0, 0.0, -length, 0.0, 0.0, length, R, angle=wedge)
+        cavity = occ.addCylinder(r_c, 0.0, -t1 - lc, 0.0, 0.0, lc, D / 2, angle=math.pi)  # its half y >= 0
+        walls = occ.cut([(3, outer)], [(3, cavity)])[0]
+        if core:
+            walls = walls + [(3, occ.addCylinder(0.0, 0.0, -length, 0.0, 0.0, length, h / 2, angle=wedge))]
+        particles = []
+        for (cx, cy, cz), r in zip(centres[:counts[0]], radii[:counts[0]]):
+            ball = occ.addSphere(cx, cy, cz, r)
+            cut = occ.addBox(cx - 2 * r, 0.0, cz - 2 * r, 4 * r, 2 * r, 4 * r)
+            particles.append(occ.intersect([(3, ball)], [(3, cut)])[0])
+        frag = occ.fragment(walls, [])[0] if len(walls) > 1 else walls  # OCC fragments nothing alone
+        occ.synchronize()
+        body = [t for d, t in frag if d == 3]
+        sll = [t for t in body if core and np.abs(bounding_box(3, t)[1, :2]).max() <= h / 2 + tol]
+        sixth = _group_3d(body, sll, particles, [(r_c - D / 2, r_c + D / 2)], D, lc, t1, length, tol, True, order)
+    return turned_copies(sixth, ROUND_AXIS_CHAMBERS, counts[0], 1e-6 * length)
+
+
+def turned_copies(part: Mesh, turns: int, n_particles: int, tol: float) -> Mesh:
+    """The mesh made of the part ``part`` of a body with ``turns``-fold symmetry about z: the part
+    lying in 0 <= angle <= 180/turns deg, its mirror image about y = 0, and both turned by 360 k /
+    turns deg, k = 1 .. turns - 1; nodes closer than ``tol`` [mm] merged (those on the planes
+    between copies). Cells keep their groups; "particle<j>" (j < ``n_particles``) of the k-th turn
+    becomes "particle<k n_particles + j>" (the part's and its mirror's halves one particle), and
+    so do "particle<j>_boundary"; the facet group "symmetry" (the part's cut faces, inside the
+    whole) is dropped."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    P, C = np.asarray(part.points), np.asarray(part.cells)
+    n, m = len(P), len(C)
+    copies = []
+    for k in range(turns):
+        a = 2.0 * math.pi * k / turns
+        rot = np.array([[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 1.0]])
+        copies += [P @ rot.T, (P * np.array([1.0, -1.0, 1.0])) @ rot.T]
+    points = np.vstack(copies)
+    pairs = cKDTree(points).query_pairs(tol, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points),) * 2)
+    _, label = connected_components(graph, directed=False)
+    _, first = np.unique(label, return_index=True)
+    node = first[label]  # every node's representative: the first of its merged set
+    cells = np.vstack([node[C + c * n] for c in range(2 * turns)])
+    groups: dict[str, list] = {}
+    for name, idx in part.cell_groups.items():
+        for c in range(2 * turns):
+            key = name
+            if name.startswith("particle"):
+                key = f"particle{(c // 2) * n_particles + int(name[len('particle'):])}"
+            groups.setdefault(key, []).append(np.asarray(idx) + c * m)
+    facets: dict[str, list] = {}
+    for name, fac in part.facet_groups.items():
+        if name == "symmetry":
+            continue
+        for c in range(2 * turns):
+            key = name
+            if name.startswith("particle"):
+                j = int(name[len("particle"):-len("_boundary")])
+                key = f"particle{(c // 2) * n_particles + j}_boundary"
+            facets.setdefault(key, []).append(node[np.asarray(fac) + c * n])
+    return Mesh.create(points, cells, part.cell_type, {k: np.concatenate(v) for k, v in groups.items()},
+                       {k: np.vstack(v) for k, v in facets.items()}, prune=True)
+
+
 def mesh_design(design: Design) -> Mesh:
     """The quadratic-triangle mesh of a 2D design (groups as in :func:`actuator_2d`); a 3D design:
     :func:`mesh_design_3d`."""
     if design.dimension == 3:
+        if design.round_axis:
+            return actuator_3d_round(design)
         return mesh_design_3d(design) if design.chambers is None else actuator_3d_chambers(design)
     if design.chambers is not None:
         return actuator_2d_chambers(design)
@@ -329,7 +450,10 @@ def replica_offsets(design: Design) -> np.ndarray:
     replica is the same on every machine and NumPy version. Neighbours then keep a gap of at least
     (1 - 2 jitter) c.
     """
-    n = len(particle_centres(design)) if design.chambers is None else len(chamber_particles(design)[0])
+    if design.chambers is None:
+        n = len(particle_centres(design))
+    else:
+        n = len((round_axis_particles if design.round_axis else chamber_particles)(design)[0])
     dim = design.dimension
     spec = design.replicas
     if spec.index == 0:

@@ -738,6 +738,9 @@ class Gauges:
         ``particle_nodes``; empty for one chamber (``particles_per_layer`` then holds).
     mirror_y : bool
         The 3D half model: the free-end face is mirrored about y = 0 for its rotation.
+    round_axis : bool
+        Three chambers round the axis: no strain-limit side, so the bending angle and the
+        centreline's profile are read in the bending plane (:func:`measure`).
     """
 
     reference: np.ndarray
@@ -755,6 +758,16 @@ class Gauges:
     particle_diameter: float = 0.0
     chamber_layers: tuple[tuple[int, int], ...] = ()
     mirror_y: bool = False
+    round_axis: bool = False
+
+
+def turned_to_plane(points: np.ndarray, plane_deg: float) -> np.ndarray:
+    """3D positions (m, 3) [mm] turned about z so that the direction ``plane_deg`` in x-y (from +x
+    toward +y) becomes -x: a bend in that plane then reads as a bend toward -x, positive."""
+    a = np.radians(180.0 - plane_deg)
+    c, s = np.cos(a), np.sin(a)
+    p = np.asarray(points, dtype=float)
+    return np.column_stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]])
 
 
 def particle_volumes(gauges: Gauges, x: np.ndarray) -> np.ndarray:
@@ -814,28 +827,32 @@ def measure(gauges: Gauges, x: np.ndarray) -> dict:
             Xf, xf = np.vstack([Xf, Xf * flip]), np.vstack([xf, xf * flip])
         direction, twist = swing_twist_deg(face_rotation_matrix(Xf, xf))
         dy = float((xf[:, 1] - Xf[:, 1]).mean())
-        profile = centreline_profile(X[cl][:, xz], x[cl][:, xz])
-        angle = bending_angle_3d_deg(X[fe], x[fe])
+        Xp, xp = X, x  # what the angle, the profile and the folds are read on
+        if gauges.round_axis:  # no strain-limit side: they are read in the bending plane
+            Xp, xp = (turned_to_plane(p, 180.0 if direction is None else direction) for p in (X, x))
+        profile = centreline_profile(Xp[cl][:, xz], xp[cl][:, xz])
+        angle = bending_angle_3d_deg(Xp[fe], xp[fe])
         cavity = enclosed_volume(x, gauges.cavity_segments)
     else:
         dx, dz = tip_displacement(X[fe], x[fe])
         profile = centreline_profile(X[cl], x[cl])
         angle = bending_angle_deg(X[fe], x[fe])
         dy, twist, direction = 0.0, 0.0, None  # plane strain: no y, no twist; the plane from the angle's sign below
+        xp = x
         cavity = polygon_area(x, gauges.cavity_segments)
     particles = float(particle_volumes(gauges, x).sum())
     ci = curling_index(profile)
     plane = [0, 2] if X.shape[1] == 3 else [0, 1]
     folds = 0
     if gauges.particle_nodes:
-        centres = np.array([x[nodes][:, plane].mean(axis=0) for nodes in gauges.particle_nodes])
+        centres = np.array([xp[nodes][:, plane].mean(axis=0) for nodes in gauges.particle_nodes])
         shapes = gauges.chamber_layers or ((len(centres) // gauges.particles_per_layer, gauges.particles_per_layer),)
         start = 0
         for n_layers, per_layer in shapes:  # each chamber's column on its own
             chamber = centres[start:start + n_layers * per_layer]
             start += n_layers * per_layer
             layers = chamber.reshape(-1, per_layer, 2).mean(axis=1)
-            folds += column_folds(layers, x[cl][:, plane], gauges.particle_diameter)
+            folds += column_folds(layers, xp[cl][:, plane], gauges.particle_diameter)
     # the face's rotation is known modulo a turn: the centreline's, unwrapped, picks the turn
     angle = unwrapped_angle_deg(angle, float(np.degrees(profile.rotation[-1])))
     if X.shape[1] == 2 and abs(angle) >= np.degrees(STRAIGHT_ROTATION_RAD):

@@ -307,7 +307,8 @@ def build_model(design: Design) -> ActuatorModel:
     gauges = Gauges(mesh.points, mesh.group_nodes("free_end"), centreline, segments, tuple(range(n_p)), circles,
                     solid, block_names, np.cumsum([len(c) for c in particle_cells])[:-1], contact,
                     tuple(np.unique(mesh.cells[cells]) for cells in particle_cells), design.particles_per_layer,
-                    diameter, chamber_layers=layer_sizes, mirror_y=bool(design.dimension == 3 and design.mesh.symmetry))
+                    diameter, chamber_layers=layer_sizes, mirror_y=bool(design.dimension == 3 and design.mesh.symmetry),
+                    round_axis=design.round_axis)
     if design.dimension == 3:
         gauges = replace(gauges, reference_volume=float(particle_volumes(gauges, mesh.points).sum()))
     if design.stimulus.schedule is not None:  # time-resolved: the particles' kinetics set the path

@@ -13,9 +13,24 @@ from matplotlib.figure import Figure
 
 from hydrojam._io import atomic_path
 from hydrojam.actuator.fields import cell_fields
-from hydrojam.actuator.metrics import centreline_profile
+from hydrojam.actuator.metrics import centreline_profile, turned_to_plane
 from hydrojam.actuator.model import PARTICLE_BODY
 from hydrojam.fem.elements import ELEMENTS, straight_pieces
+
+
+#: colour maps of each chamber's gel in a multi-chamber design's figures (matplotlib's names),
+#: chamber by chamber; a single chamber's gel keeps viridis
+CHAMBER_CMAPS = ("Blues", "Oranges", "Greens")
+
+
+def chamber_cmap(k: int):
+    """The colour map of chamber ``k``'s gel: the upper two thirds of :data:`CHAMBER_CMAPS` [k]
+    (their pale ends would vanish on the white page)."""
+    import matplotlib
+    from matplotlib.colors import ListedColormap
+
+    base = matplotlib.colormaps[CHAMBER_CMAPS[k % len(CHAMBER_CMAPS)]]
+    return ListedColormap(base(np.linspace(0.35, 1.0, 256)), name=f"chamber{k}")
 
 
 def _outline_segments(mesh) -> np.ndarray:
@@ -61,7 +76,8 @@ def plot_actuator(model, state, path: str | os.PathLike, render: np.ndarray | No
     """Draw the actuator at a state over its undeformed outline (left) and the centreline curvature
     profile (right); with ``render``, that 3D picture first.
 
-    Particles coloured by swelling ratio (gel volume / dry volume); membrane light grey,
+    Particles coloured by swelling ratio (gel volume / dry volume), each chamber's gel in its own
+    colour map where there are several (:data:`CHAMBER_CMAPS`); membrane light grey,
     strain-limit layer dark grey. Lengths in mm. A 3D actuator is drawn as its section y = 0 (the
     symmetry plane: half of every particle, the walls and the strain-limit layer cut through the
     middle), seen along -y.
@@ -108,35 +124,65 @@ def plot_actuator(model, state, path: str | os.PathLike, render: np.ndarray | No
     lo, hi = float(swell[gel].min()), float(swell[gel].max())
     if hi - lo < 1e-3 * hi:  # uniform (e.g. as prepared): a readable range around it
         lo, hi = 0.95 * lo, 1.05 * hi
-    pc = PolyCollection(x[tris[gel]], array=swell[gel], cmap="viridis", edgecolors="face", linewidths=0.2)
-    pc.set_clim(lo, hi)
-    ax.add_collection(pc)
+    chambers = model.design.resolved_chambers
+    if chambers is None:
+        pc = PolyCollection(x[tris[gel]], array=swell[gel], cmap="viridis", edgecolors="face", linewidths=0.2)
+        pc.set_clim(lo, hi)
+        ax.add_collection(pc)
+        bars = [(pc, "particle swelling ratio J (volume / dry volume)")]
+    else:  # each chamber's gel in its own colours, one swelling scale
+        counts = [ch.particle_layers * ch.particles_per_layer for ch in chambers]
+        owner = np.repeat(np.arange(len(chambers)), counts)[np.maximum(body - PARTICLE_BODY, 0)]
+        bars = []
+        for k, ch in enumerate(chambers):
+            mine = gel & (owner == k)
+            pc = PolyCollection(x[tris[mine]], array=swell[mine], cmap=chamber_cmap(k), edgecolors="face",
+                                linewidths=0.2)
+            pc.set_clim(lo, hi)
+            ax.add_collection(pc)
+            bars.append((pc, f"chamber {k} ({ch.temperature:g} K): J"))
     ax.add_collection(LineCollection(x[seg], colors="k", linewidths=0.5))
     allp = np.vstack([X, x])
     pad = 0.05 * np.ptp(allp, axis=0).max()
     ax.set_xlim(allp[:, 0].min() - pad, allp[:, 0].max() + pad)
     ax.set_ylim(allp[:, 1].min() - pad, allp[:, 1].max() + pad)
     ax.set_aspect("equal")
-    chambers = model.design.chambers is not None
-    ax.set_xlabel("x [mm]" + ("  (chambers side by side)" if chambers else "  (strain-limit layer on the -x side)"))
+    layout = "  (strain-limit layer on the -x side)"
+    if chambers is not None:
+        layout = "  (chamber 0 on +x; 1, 2 at 120, 240 deg)" if model.design.round_axis else "  (chambers side by side)"
+    ax.set_xlabel("x [mm]" + layout)
     ax.set_ylabel("z [mm]")
-    fig.colorbar(pc, ax=ax, shrink=0.8, label="particle swelling ratio J (volume / dry volume)")
+    if len(bars) == 1:
+        fig.colorbar(bars[0][0], ax=ax, shrink=0.8, label=bars[0][1])
+    for k, (pc, label) in reversed(list(enumerate(bars if len(bars) > 1 else ()))):
+        # one thin bar a chamber, stacked below, chamber 0 on top (each bar is placed right under
+        # the axes, pushing the ones before it down): the top one clears the axis label
+        fig.colorbar(pc, ax=ax, orientation="horizontal", shrink=0.8, label=label, fraction=0.04,
+                     pad=0.14 if k == 0 else 0.07, aspect=40)
     m = state.metrics
     where = "3D, section y = 0; " if mesh.dim == 3 else ""
     ax.set_title(f"{where}T = {state.T:.1f} K, mu = {state.mu:.3g} kT, s = {state.s:.3g}\n"
                  f"bending angle {m['bending_angle_deg']:.1f} deg, tip dx {m['tip_dx_mm']:.1f} mm, "
                  f"dz {m['tip_dz_mm']:.1f} mm", fontsize=10)
     cl = model.centreline_nodes
-    prof = centreline_profile(X[cl], x[cl])
+    if model.design.round_axis:  # the profile in the bending plane, as the metrics read it
+        plane = m.get("bending_plane_deg")
+        P, p = (turned_to_plane(q, 180.0 if plane is None else plane)[:, [0, 2]] for q in (mesh.points, state.x))
+        prof = centreline_profile(P[cl], p[cl])
+    else:
+        prof = centreline_profile(X[cl], x[cl])
     ax2.plot(prof.reference_arc_length, prof.curvature * 1e3, "-", color="C0")
     ax2.axhline(0.0, color="0.6", lw=0.7)
     k_max = float(np.max(np.abs(prof.curvature))) * 1e3
     if k_max < 1e-6:  # straight: no scale to show round-off at
         ax2.set_ylim(-1.0, 1.0)
     ax2.set_xlabel("arc length from the clamp, as prepared [mm]")
-    ax2.set_ylabel("centreline curvature [1/m]  (> 0: toward " + ("-x)" if chambers else "the strain-limit layer)"))
+    toward = "the strain-limit layer)" if chambers is None else "-x)"
+    line = "strain-limit layer mid-line" if chambers is None else "shared wall's mid-line"
+    if model.design.round_axis:
+        toward, line = "the bending plane)", "axis, in the bending plane"
+    ax2.set_ylabel("centreline curvature [1/m]  (> 0: toward " + toward)
     ci = m.get("curling_index")
-    line = "shared wall's mid-line" if chambers else "strain-limit layer mid-line"
     ax2.set_title(line + ("" if ci is None else f", curling index {ci:.2f}"), fontsize=10)
     ax3 = ax2.twinx()
     ax3.plot(prof.reference_arc_length, np.degrees(prof.rotation), "--", color="C1")

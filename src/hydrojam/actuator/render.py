@@ -76,6 +76,9 @@ class Surfaces:
         Swelling ratio of each triangle's cell (gel volume over dry-network volume; 1 in the elastomers).
     outline : ndarray, shape (m, 2)
         Node indices of the undeformed walls' feature edges (the outline drawn faintly).
+    chamber : ndarray, shape (k,), optional
+        A multi-chamber design's: the chamber of each triangle's particle (-1 in the walls); None
+        for one chamber.
     """
 
     points: np.ndarray
@@ -84,6 +87,7 @@ class Surfaces:
     body: np.ndarray
     swelling: np.ndarray
     outline: np.ndarray
+    chamber: np.ndarray | None = None
 
     def group(self, name: str) -> np.ndarray:
         """Mask of the triangles of ``name``: "membrane", "strain_limit" or "particles"."""
@@ -160,8 +164,11 @@ def state_surfaces(mesh) -> Surfaces:
     tris = straight_pieces(faces, 2)
     rep = len(tris) // max(len(faces), 1)
     outline = _feature_edges(X, straight_pieces(faces[body[owner] < PARTICLE_BODY], 2), FEATURE_ANGLE_DEG)
+    chamber = None
+    if "chamber" in mesh.cell_data:  # a multi-chamber design's
+        chamber = np.repeat(np.asarray(mesh.cell_data["chamber"][0]).ravel().astype(int)[owner], rep)
     return Surfaces(points=x, reference=X, triangles=tris, body=np.repeat(body[owner], rep),
-                    swelling=np.repeat(swell[owner], rep), outline=outline)
+                    swelling=np.repeat(swell[owner], rep), outline=outline, chamber=chamber)
 
 
 def swelling_range(values: np.ndarray) -> tuple[float, float]:
@@ -229,7 +236,23 @@ class Renderer:
         p.set_background("white")
         clim = self.clim or swelling_range(surf.swelling[surf.group("particles")])
         gel = surf.group("particles")
-        if gel.any():
+        if gel.any() and surf.chamber is not None:  # each chamber's gel in its own colours, one scale
+            from hydrojam.actuator.plots import chamber_cmap
+
+            chambers = np.unique(surf.chamber[gel])
+            for i, k in enumerate(chambers):
+                mine = gel & (surf.chamber == k)
+                mesh = _poly(pv, surf.points, surf.triangles[mine])
+                name = f"chamber {k} J"
+                mesh.cell_data[name] = surf.swelling[mine]
+                mesh = mesh.cell_data_to_point_data()
+                p.add_mesh(mesh, scalars=name, cmap=chamber_cmap(int(k)), clim=clim, smooth_shading=True,
+                           render=False, show_scalar_bar=scale_bar,
+                           scalar_bar_args={"title": name, "vertical": False, "width": 0.6 / len(chambers),
+                                            "height": 0.08, "position_x": 0.1 + 0.8 * i / len(chambers),
+                                            "position_y": 0.05, "fmt": "%.2f", "n_labels": 2,
+                                            "title_font_size": 16, "label_font_size": 14, "color": "black"})
+        elif gel.any():
             mesh = _poly(pv, surf.points, surf.triangles[gel])
             mesh.cell_data["swelling ratio J"] = surf.swelling[gel]
             mesh = mesh.cell_data_to_point_data()
