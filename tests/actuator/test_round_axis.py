@@ -8,6 +8,7 @@ one swells a few per cent: the runs stay small and cheap."""
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 
 import numpy as np
@@ -230,9 +231,15 @@ def _plane_gap_deg(a: float, b: float) -> float:
     return abs((a - b + 180.0) % 360.0 - 180.0)
 
 
+#: the cases beyond the first cost about 4.5 CPU minutes each: they run where HYDROJAM_LONG_TESTS=1
+#: (the suite on 2 cores stays well inside its 15 minutes with the bisecting case alone)
+_LONG = pytest.mark.skipif(os.environ.get("HYDROJAM_LONG_TESTS") != "1", reason="set HYDROJAM_LONG_TESTS=1")
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("active, plane", [({1}, -60.0), ({0, 1}, -120.0), ({0, 1, 2}, None)],
-                         ids=["chamber1", "chambers0and1", "all3"])
+@pytest.mark.parametrize("active, plane", [({0, 1}, -120.0), pytest.param({1}, -60.0, marks=_LONG),
+                                           pytest.param({0, 1, 2}, None, marks=_LONG)],
+                         ids=["chambers0and1", "chamber1", "all3"])
 def test_the_activated_chambers_pick_the_bending_plane(active, plane):
     """Chamber 1 (at 120 deg) activated alone: the actuator bends away from it, in its plane,
     toward -60 deg; chambers 0 and 1 activated: away from both, in the plane bisecting them,

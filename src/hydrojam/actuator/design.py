@@ -505,7 +505,7 @@ class Design(BaseModel):
         would eat into the clearance (at h = 4 mm, D = 16.2 mm, the gap to the sphere measured
         0.069 mm for a clearance of 0.1 mm, under the barrier's reach of 0.08 mm, so that the
         as-prepared state was not stress-free)."""
-        D, h = self.resolved_cavity_depth, self.mesh.size
+        D, h = self.resolved_cavity_depth, self.mesh_size
         return D + 2.0 * (h / 2.0) ** 2 / (4.0 * D)
 
     @property

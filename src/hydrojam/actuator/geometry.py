@@ -356,7 +356,7 @@ def actuator_3d_round(design: Design, order: int = 2) -> Mesh:
     wedge = math.pi / ROUND_AXIS_CHAMBERS  # half a sector
     tol = 0.05 * min(t0, t1, design.resolved_chamber_wall, h if core else t0)
     with gmsh_session():
-        set_mesh_size(design.mesh.size)
+        set_mesh_size(design.mesh_size)
         occ = gmsh.model.occ
         outer = occ.addCylinder(0.0, 0.0, -length, 0.0, 0.0, length, R, angle=wedge)
         cavity = occ.addCylinder(r_c, 0.0, -t1 - lc, 0.0, 0.0, lc, D / 2, angle=math.pi)  # its half y >= 0
