@@ -236,3 +236,27 @@ def _refused_in(out, args, capsys) -> bool:
     code = main(args)
     err = capsys.readouterr().err
     return code == 2 and "holds replicas assessed under other loads" in err and sorted(p.name for p in out.iterdir()) == before
+
+
+def test_a_replica_whose_pneumatic_chamber_balloons_is_not_stopped_early(tmp_path, monkeypatch):
+    """A replica is stopped early where the single assessment's exit status says so (actuation,
+    curves, blocked force), not where a baseline ends short: the empty chamber's pneumatic ramp
+    stops at its balloon's limit point, an answer its message reports."""
+    from types import SimpleNamespace
+
+    import hydrojam.assess.replicas as replicas_module
+    import hydrojam.assess.report as report_module
+
+    def fake(values, curves_ok=True):
+        curves = {"actuated": SimpleNamespace(converged=curves_ok)}
+        return SimpleNamespace(values=values, curves=curves, blocked=[{"converged": True}])
+
+    monkeypatch.setattr(report_module, "write_report", lambda a, out: out)
+    base = {"actuation_converged": True, "vacuum_converged": True, "pneumatic_converged": False,
+            "pneumatic_message": "short of 122 deg: a limit point"}
+    monkeypatch.setattr(replicas_module, "assess", lambda design, loads: fake(dict(base)))
+    v = replicas_module.assess_point(None, tmp_path, None)
+    assert v["converged"] is True and v["message"] == "converged"
+    monkeypatch.setattr(replicas_module, "assess", lambda design, loads: fake(dict(base), curves_ok=False))
+    v = replicas_module.assess_point(None, tmp_path, None)
+    assert v["converged"] is False and v["message"] == "stopped early: curves_converged"

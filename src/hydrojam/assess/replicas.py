@@ -29,7 +29,10 @@ ASSESS_REPLICA_STUDY = "assessment_replicas"
 LOADS_FILE = "loads.json"
 
 #: the parts whose convergence decides a replica's status
-PARTS = ("actuation_converged", "curves_converged", "blocked_converged", "vacuum_converged", "pneumatic_converged")
+#: the parts whose stop makes an assessment stopped early (exit status 1), as for a single
+#: assessment: the baselines' own stops are answers their messages report (the empty chamber's
+#: pneumatic ramp ends at its balloon's limit point short of the active angle)
+PARTS = ("actuation_converged", "curves_converged", "blocked_converged")
 
 
 def assess_point(design: Design, point_dir: Path, loads: Loads) -> dict:
