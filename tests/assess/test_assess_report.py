@@ -260,3 +260,23 @@ def test_a_replica_whose_pneumatic_chamber_balloons_is_not_stopped_early(tmp_pat
     monkeypatch.setattr(replicas_module, "assess", lambda design, loads: fake(dict(base), curves_ok=False))
     v = replicas_module.assess_point(None, tmp_path, None)
     assert v["converged"] is False and v["message"] == "stopped early: curves_converged"
+
+
+def test_the_replicas_report_says_the_pneumatic_chamber_stopped_short(tmp_path):
+    """Where the replicas' pneumatic ramps end at the balloon's limit point short of the active
+    angle, the replicas' answer says so (their means alone carry no flag) and quotes the message."""
+    from hydrojam.assess.replicas import ReplicaAssessment
+    from hydrojam.assess.report import write_replica_report
+    from hydrojam.study.spread import spread
+
+    values = [{"bending_angle_deg": 122.0 + k, "stiffness_active_over_pneumatic": 12.0 + k, "pneumatic_angle_deg": 25.3,
+               "pneumatic_pressure_kPa": 3.17, "stiffness_pneumatic": 0.005, "pneumatic_converged": False,
+               "pneumatic_message": "short of 122 deg: a limit point"} for k in range(2)]
+    runs = [{"replica": k, "key": f"k{k}", "status": "ok", "error": None, "values": v} for k, v in enumerate(values)]
+    stats = {name: spread([v[name] for v in values]) for name in values[0]
+             if isinstance(values[0][name], float)}
+    loads = Loads(blocking=False, vacuum=False)
+    write_replica_report(ReplicaAssessment(Design(), loads, runs, stats, 1.0), tmp_path)
+    text = (tmp_path / "report.md").read_text(encoding="utf-8")
+    assert "does not bend as far under pressure: short of 122 deg: a limit point" in text
+    assert "bends as far" not in text

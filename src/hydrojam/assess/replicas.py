@@ -43,7 +43,8 @@ def assess_point(design: Design, point_dir: Path, loads: Loads) -> dict:
 
     a = assess(design, loads)
     write_report(a, point_dir)
-    values = {k: v for k, v in a.values.items() if isinstance(v, (bool, int, float))}
+    values = {k: v for k, v in a.values.items()
+              if isinstance(v, (bool, int, float)) or (k.endswith("_message") and isinstance(v, str))}
     values["curves_converged"] = all(c.converged for c in a.curves.values())
     values["blocked_converged"] = all(b["converged"] for b in a.blocked)
     stopped = [k for k in PARTS if values.get(k) is False]

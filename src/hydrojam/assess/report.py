@@ -397,6 +397,13 @@ def write_replica_report(r, out: str | os.PathLike) -> Path:
     three_d = d.dimension == 3
     stats = r.stats
     means = r.mean()
+    for part in ("vacuum", "pneumatic"):  # the answer words a baseline's stop as the replicas report it
+        flags = [run["values"].get(f"{part}_converged") for run in r.runs if run.get("values")]
+        if any(f is False for f in flags):
+            means[f"{part}_converged"] = False
+            means[f"{part}_message"] = next(
+                (run["values"].get(f"{part}_message") for run in r.runs
+                 if run.get("values") and run["values"].get(f"{part}_message")), "it stopped short of its target")
     temps = list(r.loads.temperatures) if r.loads.blocking else []
     blocked = [{"temperature_K": T, "force_x": means.get(f"blocked_force_{T:g}K")} for T in temps]
     write_text_atomic(out / "assessment.json", json.dumps(r.to_json(), indent=1, allow_nan=False) + "\n")
