@@ -67,16 +67,11 @@ class SizeRuns:
 def _cached_rows(out: Path, design, count: int) -> list[dict]:
     """One row per replica 0 .. count-1 of ``design``, as replicas.csv has them, from the records
     in ``out/points`` (a run that finished before its replica study was stopped counts too)."""
-    from hydrojam.study.replicas import replica_study
+    from hydrojam.study.replicas import replica_records, replica_study
     from hydrojam.study.table import replica_table
 
     study = replica_study(design, count)
-    records = {}
-    for p in study.points():
-        try:
-            records[p.key] = json.loads((out / "points" / p.key / "point.json").read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            continue
+    records = replica_records(out, study)
     return replica_table(study, records).rows
 
 

@@ -38,7 +38,8 @@ from hydrojam.study.states import state_counts, states_text
 from hydrojam.study.sweep import PointOutcome, run_point, run_sweep
 from hydrojam.study.table import SweepTable, replica_table
 
-__all__ = ["REPLICA_STUDY", "SUMMARY_METRICS", "ReplicaSummary", "replica_study", "run_replicas", "with_replicas"]
+__all__ = ["REPLICA_STUDY", "SUMMARY_METRICS", "ReplicaSummary", "replica_records", "replica_study", "run_replicas",
+           "with_replicas"]
 
 #: the name of a replica study (its OUT/study.toml)
 REPLICA_STUDY = "replicas"
@@ -212,7 +213,7 @@ def run_replicas(design: Design, out: str | os.PathLike, *, count: int | None = 
     study = replica_study(design, count)
     table = run_sweep(study, out, workers=workers, scheduler=scheduler, on_point=on_point, point_fn=point_fn,
                       on_running=on_running)
-    records = _records(Path(out).absolute(), study)
+    records = replica_records(Path(out).absolute(), study)
     runs = replica_table(study, records).rows
     summary = summarise(study.base, runs, time.perf_counter() - t0)
     if study.replicas == 1:  # run_sweep writes replicas.csv only for several
@@ -221,8 +222,9 @@ def run_replicas(design: Design, out: str | os.PathLike, *, count: int | None = 
     return table, summary
 
 
-def _records(out: Path, study: Study) -> dict[str, dict]:
-    """The point.json of every run of the study in OUT (missing ones left out)."""
+def replica_records(out: Path, study: Study) -> dict[str, dict]:
+    """The point.json of every run of ``study`` in the folder ``out``, by key (runs without one,
+    unfinished or missing, left out)."""
     records = {}
     for p in study.points():
         try:
