@@ -59,12 +59,29 @@ def keep(out: Path, dest: Path) -> list[str]:
         for name in FILES:
             if (src / name).is_file():
                 shutil.copyfile(src / name, target / name)
+        trim_record(target)
         kept.append(target.name)
     return kept
 
 
+def trim_record(folder: Path) -> None:
+    """Make ``folder``/point.json list only the result files kept beside it (their checksums
+    unchanged): the large files left out are then not missing from a restored point, and the
+    sweep loads it instead of computing it again (hydrojam.study.cache.damaged_files)."""
+    path = folder / "point.json"
+    record = json.loads(path.read_text(encoding="utf-8"))
+    files = record.get("files")
+    if isinstance(files, dict):
+        record["files"] = {k: v for k, v in files.items() if (folder / k).is_file()}
+        path.write_text(json.dumps(record, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+
+
 if __name__ == "__main__":
+    if len(sys.argv) == 2 and sys.argv[1] == "--trim-all":  # the records kept before trim_record
+        for rec in sorted(Path(__file__).resolve().parent.glob("*/*/point.json")):
+            trim_record(rec.parent)
+        sys.exit(0)
     if len(sys.argv) != 3:
-        sys.exit("usage: python docs/data/keep.py OUT DEST")
+        sys.exit("usage: python docs/data/keep.py OUT DEST | --trim-all")
     names = keep(Path(sys.argv[1]), Path(sys.argv[2]))
     print(f"kept {len(names)} points in {sys.argv[2]}: {' '.join(names)}")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import sys
 
 import pytest
@@ -177,6 +178,11 @@ def test_the_kept_3d_records_give_the_report_again(tmp_path):
     finished = [p for p in {p.key: p for p in code.points()}.values()
                 if (out / "points" / p.key / "point.json").is_file()]
     assert len(finished) == n_kept
+    from hydrojam.study.cache import damaged_files
+
+    for p in finished:  # loaded by a sweep, not computed again: no listed file is missing
+        folder = out / "points" / p.key
+        assert damaged_files(folder, json.loads((folder / "point.json").read_text())) == [], p.key
     other = tmp_path / "other"
     other.mkdir()
     (other / "study.toml").write_text('name = "my-study"\n')
