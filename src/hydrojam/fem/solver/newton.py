@@ -335,35 +335,22 @@ def _unshifted(H, dx, g, r, solver, options: NewtonOptions):
     few modes about as soft as eps, which the conjugate gradients resolve in about as many
     steps."""
     target = options.linear_residual * r
-    x, res = dx, -g - H @ dx
-    if np.linalg.norm(res) <= target:
-        return dx
-    z = solver.resolve(res, approximate=True)
-    p, rz = z, float(res @ z)
-    for _ in range(UNSHIFTED_STEPS):
-        Hp = H @ p
-        curvature = float(p @ Hp)
-        if curvature <= 0:
-            return dx
-        a = rz / curvature
-        x = x + a * p
-        res = res - a * Hp
-        if np.linalg.norm(res) <= target:
-            return x if np.linalg.norm(H @ x + g) <= target and g @ x < 0 else dx
-        z = solver.resolve(res, approximate=True)
-        rz, rz_old = float(res @ z), rz
-        p = z + (rz / rz_old) * p
-    return dx
+    x, _ = _conjugate_gradients(H, g, r, solver, UNSHIFTED_STEPS, options, x0=dx)
+    return x if x is not None and np.linalg.norm(H @ x + g) <= target and g @ x < 0 else dx
 
 
-def _conjugate_gradients(K, g, r, solver, steps: int, options: NewtonOptions):
+def _conjugate_gradients(K, g, r, solver, steps: int, options: NewtonOptions, x0=None):
     """K dx = -g by at most ``steps`` conjugate-gradient iterations preconditioned with the
-    solver's last factorisation (a positive definite K nearby): (dx, p). dx once
-    ||K dx + g|| <= linear_residual x r, else None; p the first search direction with curvature
-    p.K.p <= 0 (K is not positive definite there; dx is None then), else None. Every iterate
-    from dx = 0 descends (g.dx < 0)."""
-    x = np.zeros_like(g)
-    res = -g
+    solver's last factorisation (a positive definite K nearby), from ``x0`` (default 0): (dx, p).
+    dx once ||K dx + g|| <= linear_residual x r (``x0`` itself where it meets that already), else
+    None; p the first search direction with curvature p.K.p <= 0 (K is not positive definite
+    there; dx is None then), else None. Every iterate from dx = 0 descends (g.dx < 0)."""
+    if x0 is None:
+        x, res = np.zeros_like(g), -g
+    else:
+        x, res = x0, -g - K @ x0
+        if np.linalg.norm(res) <= options.linear_residual * r:
+            return x0, None
     z = solver.resolve(res, approximate=True)
     p, rz = z, float(res @ z)
     for _ in range(steps):
