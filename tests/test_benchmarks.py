@@ -132,6 +132,23 @@ def test_a_marked_section_of_a_page_is_replaced_and_nothing_else():
         path_benchmark.replace_section(page, "other", "x")
 
 
+def test_the_design_map_table_reads_its_csv_in_kilopascals_and_marks_a_failed_point(tmp_path):
+    """``design_map.py``: one row per point of OUT/design_map.csv, pressures MPa -> kPa, a negative
+    angle with a minus sign, and "n/a" where a point failed (its empty cells)."""
+    import design_map as map_benchmark
+
+    (tmp_path / "design_map.csv").write_text(
+        "side_wall_thickness,membrane.shear_modulus,bending_angle_deg,stiffness_ratio,contact_pressure_mean,"
+        "contact_pressure_max,swelling_pressure,confinement_share,converged\n"
+        "1.0,0.023,56.83,4.31,0.0046,0.0198,7.35,0.00063,True\n"
+        "4.0,0.2,-2.1,12.6,0.0422,0.16,7.35,0.0057,True\n"
+        "2.0,0.07,,,,,,,\n", encoding="utf-8")
+    lines = map_benchmark.table(tmp_path)
+    assert lines[2] == "| 1 | 0.023 | 56.8 | 4.3 | 4.6 / 19.8 | 0.00063 |"
+    assert lines[3] == "| 4 | 0.2 | \u22122.1 | 12.6 | 42.2 / 160 | 0.0057 |"
+    assert lines[4] == "| 2 | 0.07 | n/a | n/a | n/a / n/a | n/a |"
+
+
 def test_the_cudss_recorder_stores_pardisos_calls_as_solvable_upper_triangles(tmp_path):
     """``cudss.py record``: each PARDISO call is kept with the pattern in force (1-based upper
     CSR), the values it factorised and its right-hand side, from which the replay rebuilds K;
