@@ -198,6 +198,38 @@ def test_a_point_not_finished_leaves_the_claim_open_and_says_what_the_others_rea
     assert res["PL-dx"].verdict == "undetermined" and "|δx| at 19: not finished" in res["PL-dx"].summary
 
 
+def test_a_point_with_one_run_takes_its_sweeps_largest_spread():
+    """One run measures no spread: with 29.9° at 275 K (4 runs) and one run at 295 K, the
+    comparison's spread is sqrt(2) x 29.9° = 42.3° (not 29.9°), and the margin of 42.2° lies
+    within it, as when both points spread by 29.9°; the one run is named."""
+    from paper_synthetic import with_spread
+
+    rows = with_spread(temperature_rows(), {"bending_angle_deg": 29.9})
+    rows = [dict(r, replicas_used=1, bending_angle_deg_std=None) if r["stimulus.temperature"] == 295.0 else r
+            for r in rows]
+    res = pclaims.check_claim(FALLS, rows)
+    assert res.verdict == pclaims.SPREAD_VERDICT, res.summary
+    assert "-46.0° ± 42.3°" in res.summary and "29.0° (one run)" in res.summary
+
+
+def test_a_point_with_some_replicas_finished_is_used_with_them_and_keeps_the_claim_open():
+    """A study in progress: PL 11 with 1 of 3 replicas finished is read with that run (not
+    skipped), and the claim is not final until the point finishes."""
+    from paper_synthetic import with_spread
+
+    rows = with_spread(layer_rows(), {"bending_angle_deg": 0.5, "tip_dx_mm": 0.5}, replicas=3)
+    rows = [dict(r, status="unfinished", replicas_used=1, bending_angle_deg_std=None, tip_dx_mm_std=None)
+            if r["particle_layers"] == 11 else r for r in rows]
+    res = {r.claim.id: r for r in pclaims.check_claims(rows)}
+    assert res["PL-dx"].verdict == "undetermined"
+    assert res["PL-dx"].summary.startswith(
+        "not final, PL 11 (1 of 3 runs) not finished; the finished points alone read agree: "), res["PL-dx"].summary
+    assert "skipped" not in res["PL-dx"].summary
+    finished = {r.claim.id: r for r in pclaims.check_claims(
+        [dict(r, status="ok", replicas_used=3) for r in rows])}
+    assert finished["PL-dx"].verdict == "agree", finished["PL-dx"].summary
+
+
 def test_a_state_is_checked_over_the_points_where_it_occurs():
     """A state's table (one row a point, a point without a run in that state marked "no replica in
     state"): the claims are checked over the points the state reached, the summary naming that

@@ -27,7 +27,10 @@ spread: each comparison's distance from its threshold (e.g. v(b) - v(a) - tol fo
 exceed the spread of what it compares, u = sqrt(s_a² + s_b²) with s the points' standard
 deviations (the spread of one filling against another, not the standard error of the means: a
 designer builds one actuator). A part within the spread is "undetermined (spread)", and so is a
-claim with such a part and no part that disagrees or is undetermined for want of points.
+claim with such a part and no part that disagrees or is undetermined for want of points. A point
+with one run in a study with replicas measures no spread of its own and takes the largest its
+sweep measured. A point of a study in progress with some of its replicas finished is used with
+those runs, and the claim stays "not final" until it finishes.
 
 Units: mm, K, degrees.
 """
@@ -37,7 +40,7 @@ from __future__ import annotations
 import enum
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field as _field
 
 import numpy as np
 
@@ -391,10 +394,13 @@ def check_claim(claim: Claim, table) -> ClaimResult:
         verdict = Verdict.UNDETERMINED
     else:
         verdict = Verdict.SPREAD if any(ok == _SPREAD for ok in oks) else Verdict.AGREE
-    pending = sorted({p for s in series for p, why in s.problems.items() if why == _NOT_FINISHED})
+    pending = sorted({p for s in series for p, why in s.problems.items() if why == _NOT_FINISHED}
+                     | {p for s in series for p in s.partial})
     if pending and verdict != Verdict.UNDETERMINED:
         # a point still running may change any part (and the tolerance, from the sweep's largest value)
-        at = f"{sweep.symbol} " + ", ".join(fmt_param(p, sweep.unit) for p in pending)
+        partial = {p: why for s in series for p, why in s.partial.items()}
+        at = f"{sweep.symbol} " + ", ".join(fmt_param(p, sweep.unit) + (f" ({partial[p]})" if p in partial else "")
+                                            for p in pending)
         return ClaimResult(claim, f"not final, {at} not finished; the finished points alone read {verdict}: "
                                   + text, Verdict.UNDETERMINED)
     return ClaimResult(claim, text, verdict)
@@ -439,6 +445,8 @@ class _Series:
     tol: float  # tolerance in the quantity's unit
     sweep: PaperSweep
     spreads: dict[float, float]  # usable points' standard deviation over replicas (0: one run)
+    partial: dict[float, str] = _field(default_factory=dict)  # point -> "k of n runs" (some still running)
+    single: frozenset[float] = frozenset()  # points with one run in a study with replicas (spread taken)
 
     @property
     def p_unit(self) -> str:
@@ -484,6 +492,8 @@ class _Series:
     def at_text(self, p: float) -> str:
         """The value at p with its spread: "74.2°" or, with replicas, "74.2 ± 3.1°"."""
         v, sd = self.values[p], self.spreads.get(p, 0.0)
+        if p in self.single:
+            return f"{self.fmt(v)} (one run)"
         if not sd:
             return self.fmt(v)
         text = self.fmt(v)
@@ -503,11 +513,17 @@ class _Series:
 
 
 def _series(rows: Sequence[dict], sweep: PaperSweep, key: str, magnitude: bool, share: float) -> _Series:
-    """Metric ``key`` over the rows of ``sweep``; tol = ``share`` x its largest magnitude."""
+    """Metric ``key`` over the rows of ``sweep``; tol = ``share`` x its largest magnitude.
+
+    A point of a study with replicas some of whose replicas have finished (a study in progress)
+    is used with its finished runs and listed in ``partial``; a point with one run there has no
+    spread of its own and takes the largest its sweep measured (``single``)."""
     requested: list[float] = []
     values: dict[float, float] = {}
     spreads: dict[float, float] = {}
     problems: dict[float, str] = {}
+    partial: dict[float, str] = {}
+    single: set[float] = set()
     name, unit = _quantity(key)
     for row in rows:
         p = number(row.get(sweep.field))
@@ -515,6 +531,10 @@ def _series(rows: Sequence[dict], sweep: PaperSweep, key: str, magnitude: bool, 
             continue
         requested.append(p)
         status, v = point_status(row), number(row.get(key))
+        used, planned = number(row.get("replicas_used")), number(row.get("replicas"))
+        if status == PointStatus.UNFINISHED and used and v is not None:
+            partial[p] = f"{used:g} of {planned:g} runs"
+            status = PointStatus.OK
         if status == PointStatus.FAILED:
             problems[p] = "failed"  # its error is in the report's table of points
         elif status == PointStatus.UNFINISHED:
@@ -534,9 +554,15 @@ def _series(rows: Sequence[dict], sweep: PaperSweep, key: str, magnitude: bool, 
         else:
             values[p] = abs(v) if magnitude else v
             spreads[p] = number(row.get(f"{key}_std")) or 0.0
+            if used is not None and used < 2:
+                single.add(p)
+    # one run measures no spread: a replica's spread is its filling's, taken as the largest the sweep measured
+    measured = max((sd for p, sd in spreads.items() if p not in single), default=0.0)
+    spreads.update(dict.fromkeys(single, measured))
     scale = max((abs(v) for v in values.values()), default=0.0)
     return _Series(name=f"|{name}|" if magnitude else name, unit=unit, requested=sorted(set(requested)),
-                   values=values, problems=problems, tol=share * scale, sweep=sweep, spreads=spreads)
+                   values=values, problems=problems, tol=share * scale, sweep=sweep, spreads=spreads,
+                   partial=partial, single=frozenset(single))
 
 
 def _beyond(ok: bool, checks: Sequence[tuple[float, float]]) -> bool | str:

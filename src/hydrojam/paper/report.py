@@ -172,7 +172,10 @@ def _tolerance_text() -> list[str]:
         "part of a check agrees or disagrees only beyond the spread: its distance from the threshold (e.g. "
         "v(b) − v(a) − tol for *rises*) must exceed u = √(s_a² + s_b²), s the points' standard deviations "
         "over the replicas (the spread of one filling against another). Otherwise the part, and the claim "
-        f"unless another part disagrees, is *{Verdict.SPREAD}*, with the numbers.",
+        f"unless another part disagrees, is *{Verdict.SPREAD}*, with the numbers. A point with one run "
+        "measures no spread and takes the largest its sweep measured (\"one run\" after its value); a point "
+        "with some of its replicas finished is read with those runs (\"k of n runs\"), and its claims are not "
+        "final until it finishes.",
         f"- Curling index: share of the strain-limit layer mid-line's rotation accumulated in the half nearest "
         f"the clamp (0.5 uniform bending, toward 1 curling); the transition check needs the median of PL ≥ 10 "
         f"to exceed that of PL ≤ 9 by {CURLING_MARGIN:g} and the largest rise between neighbouring points "
