@@ -160,3 +160,22 @@ def test_points_not_finished_are_named_and_a_failed_one_first():
     three2 = Table([row("temperature", "stimulus.temperature", 285.0, 41.0, -24.0, -5.0)])
     change, = [p.change for p in pcompare.compare_points(three2, two2, BASE_3D)]
     assert change == "no comparison yet: the 2D point is not finished (replica 1: not started)"
+
+
+def test_a_point_with_some_replicas_finished_is_compared_with_those_runs():
+    """A 3D point with 1 of 3 replicas finished has that run's result: it is compared, its cells
+    filled, and the change says how many runs it stands on; it counts one run in the pictures."""
+    from hydrojam.paper._rows import partial_runs, runs_of, without_result
+
+    partial = row("particle_layers", "particle_layers", 7, 190.0, -90.0, 140.0, status="unfinished",
+                  replicas=3, replicas_used=1, replica_dirs="points/a;points/b;points/c",
+                  error="replica 1: not started; replica 2: not started")
+    assert partial_runs(partial) == "1 of 3 runs" and not without_result(partial) and runs_of(partial) == 1
+    none_yet = dict(partial, replicas_used=0, bending_angle_deg=None)
+    assert partial_runs(none_yet) is None and without_result(none_yet)
+    two = Table([row("particle_layers", "particle_layers", 7, 28.0, -29.0, 3.0)])
+    point, = pcompare.compare_points(Table([partial]), two, BASE_3D)
+    assert point.change.startswith("bends more in 3D (θ +162.0°)"), point.change
+    assert point.change.endswith("3D: 1 of 3 runs so far"), point.change
+    lines = "\n".join(pcompare.comparison_lines(Table([partial]), two, BASE_3D, quick=True, out="out3d"))
+    assert "| 190.0 |" in lines and "nan" not in lines.lower()

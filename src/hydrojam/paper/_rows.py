@@ -41,9 +41,21 @@ def point_status(row: dict) -> PointStatus:
     return PointStatus.OK if conv else (PointStatus.NOT_CONVERGED if conv is False else PointStatus.FAILED)
 
 
+def partial_runs(row: dict) -> str | None:
+    """"k of n runs" for a point of a study in progress with some of its n replicas finished (its
+    values are those k runs'), else None."""
+    used, planned = number(row.get("replicas_used")), number(row.get("replicas"))
+    if (point_status(row) == PointStatus.UNFINISHED and used and planned
+            and number(row.get("bending_angle_deg")) is not None):
+        return f"{used:g} of {planned:g} runs"
+    return None
+
+
 def without_result(row: dict) -> bool:
-    """True for a point with nothing to draw or compare: failed, or not finished yet."""
-    return point_status(row) in (PointStatus.FAILED, PointStatus.UNFINISHED)
+    """True for a point with nothing to draw or compare: failed, or not finished yet (a point with
+    some of its replicas finished has their result)."""
+    status = point_status(row)
+    return status == PointStatus.FAILED or (status == PointStatus.UNFINISHED and partial_runs(row) is None)
 
 
 def rows_of(table: SweepTable | Sequence[dict], sweep: str) -> list[dict]:
@@ -78,7 +90,12 @@ def cell_pm(r: dict, key: str, fmt: str = "{:.1f}") -> str:
 
 
 def runs_of(row: dict) -> int:
-    """How many runs (replicas) a row's metrics are the mean of (1 for a row of one run)."""
+    """How many runs (replicas) a row's metrics are the mean of: its replicas used where the row
+    says (a point with some replicas failed or not finished), else its replicas (1 for a row of
+    one run)."""
+    used = number(row.get("replicas_used"))
+    if used is not None and used >= 1:
+        return int(used)
     return max(1, len([d for d in str(row.get("replica_dirs") or "").split(";") if d]))
 
 

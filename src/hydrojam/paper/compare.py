@@ -18,7 +18,7 @@ from pathlib import Path
 
 from hydrojam._io import read_toml
 from hydrojam.actuator.design import Design
-from hydrojam.paper._rows import cell_pm, fmt_param, number, point_status, rows_of, without_result
+from hydrojam.paper._rows import cell_pm, fmt_param, number, partial_runs, point_status, rows_of, without_result
 from hydrojam.paper.study import paper_sweeps, reproduce_command, study_name
 from hydrojam.study.cache import PointStatus
 from hydrojam.study.table import SweepTable
@@ -206,7 +206,7 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
         if point_status(r) != PointStatus.UNFINISHED and not _usable(r):
             return _plain(f"no comparison: the {dim} point failed ({r.get('error') or 'no result'})")
     for r, dim in ((r2, "2D"), (r3, "3D")):
-        if point_status(r) == PointStatus.UNFINISHED:
+        if point_status(r) == PointStatus.UNFINISHED and partial_runs(r) is None:
             err = str(r.get("error") or "")
             where = err if err.startswith(("not finished", "not started")) else f"not finished ({err or '?'})"
             return _plain(f"no comparison yet: the {dim} point is {where}")
@@ -238,6 +238,9 @@ def _change(r2: dict | None, r3: dict | None, temperature: float | None,
             parts.append(_tip_up("2D", "3D", t2, z2, length))
         elif z3 > 0 > z2:
             parts.append(_tip_up("3D", "2D", t3, z3, length))
+    for r, dim in ((r2, "2D"), (r3, "3D")):
+        if partial_runs(r):
+            parts.append(_plain(f"{dim}: {partial_runs(r)} so far")[0])
     late = [dim for r, dim in ((r2, "2D"), (r3, "3D")) if point_status(r) == PointStatus.NOT_CONVERGED]
     if late:
         note = f" ({' and '.join(late)} not converged: an intermediate state)"

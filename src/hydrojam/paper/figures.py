@@ -21,8 +21,8 @@ from hydrojam.actuator.metrics import centreline_points
 from hydrojam.actuator.model import MEMBRANE_BODY, STRAIN_LIMIT_BODY, centreline_x
 from hydrojam.actuator.plots import mid_section
 from hydrojam.fem.elements import straight_pieces
-from hydrojam.paper._rows import (drawn_angle, drawn_row, fmt_param, number, point_status, rows_of, runs_of, sorted_by,
-                                  without_result)
+from hydrojam.paper._rows import (drawn_angle, drawn_row, fmt_param, number, partial_runs, point_status, rows_of,
+                                  runs_of, sorted_by, without_result)
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
 from hydrojam.study.cache import PointStatus
 
@@ -158,9 +158,10 @@ def _angle_lines(row: dict, out: Path) -> str:
     angle = number(row.get("bending_angle_deg"))
     if angle is None:
         return "\nθ: —"
+    part = partial_runs(row)  # "1 of 3 runs" for a point not finished
     if runs_of(row) == 1:
-        return f"\nθ = {angle:.1f}°"
-    text = f"\nθ = {angle:.1f}° (mean of {runs_of(row)} runs)"
+        return f"\nθ = {angle:.1f}°" + (f" ({part})" if part else "")
+    text = f"\nθ = {angle:.1f}° (mean of {part or f'{runs_of(row)} runs'})"
     drawn = drawn_angle(out, row)
     if drawn is not None and abs(drawn - angle) >= 0.05:
         text += f"\ndrawn: run with θ = {drawn:.1f}°"
@@ -236,7 +237,7 @@ def plot_shapes(out: str | os.PathLike, rows: Sequence[dict], param: str, path: 
         pdir = out / str(row.get("point_dir") or "")
         panel = {"row": row, "shape": None, "outline": None, "failed": None, "section": False, "now": None,
                  "line": None}
-        if point_status(row) == PointStatus.UNFINISHED and row.get("point_dir"):
+        if point_status(row) == PointStatus.UNFINISHED and not partial_runs(row) and row.get("point_dir"):
             try:
                 current = _current_drawing(pdir)
             except Exception:  # noqa: BLE001 - a checkpoint being rewritten: the text panel instead
@@ -498,7 +499,12 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
                     "bands the replicas' range")
     failed = [r for r in rows if point_status(r) == PointStatus.FAILED]
     sym, _, u = _sweep_for(param, label, unit)
-    for what, left in (("failed", failed), ("not finished", [r for r in rows if point_status(r) == PointStatus.UNFINISHED])):
+    partial = [r for r in rows if partial_runs(r)]
+    if partial:
+        caption += "\nnot finished, drawn with the runs finished: " + ", ".join(
+            f"{sym} = {fmt_param(number(r.get(param)), u)} ({partial_runs(r)})" for r in partial)
+    unfinished = [r for r in rows if point_status(r) == PointStatus.UNFINISHED and not partial_runs(r)]
+    for what, left in (("failed", failed), ("not finished", unfinished)):
         if left:
             caption += f"\n{what} (not drawn): " + ", ".join(f"{sym} = {fmt_param(number(r.get(param)), u)}"
                                                            for r in left)
