@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import argparse
 import os
 import platform
 import statistics
 import time
 from collections.abc import Callable, Sequence
 from importlib import metadata
+from pathlib import Path
 
 import numpy as np
 
@@ -112,3 +114,15 @@ def print_load(label: str = "load") -> None:
     """The 1-minute load average against the CPU count: timings taken on a busy machine are noisy."""
     if hasattr(os, "getloadavg"):
         print(f"{label}: load average {os.getloadavg()[0]:.2f} (1 min) on {os.cpu_count()} CPUs")
+
+
+def page_parser(doc: str, tag: str) -> argparse.ArgumentParser:
+    """The options of a benchmark that runs a hydrojam command on DESIGN.toml into OUT and writes
+    its table into the section '<!-- TAG: NAME -->' of a docs page (docs/assess.md unless --page);
+    the caller adds its own and passes the rest on to the command."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("design")
+    parser.add_argument("-o", "--out", required=True)
+    parser.add_argument("--section", required=True, help=f"the page's section: <!-- {tag}: NAME -->")
+    parser.add_argument("--page", default=str(Path(__file__).resolve().parents[1] / "docs" / "assess.md"))
+    return parser

@@ -12,12 +12,15 @@ active particles, vacuum and pneumatic side by side. Exit status: the assessment
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
 import time
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import page_parser  # noqa: E402
+from path import replace_section  # noqa: E402
 
 #: (key, label, unit in 2D, unit in 3D): the rows of the table
 ROWS = (
@@ -45,16 +48,6 @@ ROWS = (
 
 def _g(x, digits=3) -> str:
     return "n/a" if x is None else f"{x:.{digits}g}"
-
-
-def replace_section(page: str, name: str, text: str) -> str:
-    """``page`` with the lines between the section's markers replaced by ``text`` (markers
-    kept); ValueError naming the markers where either is missing."""
-    begin, end = f"<!-- assess.py: {name} -->", f"<!-- /assess.py: {name} -->"
-    i, j = page.find(begin), page.find(end)
-    if i < 0 or j < i:
-        raise ValueError(f"no section {begin} ... {end} in the page")
-    return page[: i + len(begin)] + "\n" + text.rstrip("\n") + "\n" + page[j:]
 
 
 def table(out: Path, three_d: bool) -> list[str]:
@@ -111,11 +104,7 @@ def cost_table(out: Path) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("design")
-    parser.add_argument("-o", "--out", required=True)
-    parser.add_argument("--section", required=True, help="the page's section: <!-- assess.py: NAME -->")
-    parser.add_argument("--page", default=str(Path(__file__).resolve().parents[1] / "docs" / "assess.md"))
+    parser = page_parser(__doc__, "assess.py")
     parser.add_argument("--no-run", action="store_true",
                         help="write the table of the assessment already in OUT (its own wall time) instead of running it")
     args, rest = parser.parse_known_args(argv)
@@ -147,7 +136,8 @@ def main(argv: list[str] | None = None) -> int:
                       f"friction {design.friction:g}, wall {wall:.0f} s"
                       f"{'' if args.no_run else f', exit {code}'}.", "", *table(out, three_d), *cost_table(out)])
     page = Path(args.page)
-    page.write_text(replace_section(page.read_text(encoding="utf-8"), args.section, text), encoding="utf-8")
+    page.write_text(replace_section(page.read_text(encoding="utf-8"), args.section, text, tag="assess.py"),
+                    encoding="utf-8")
     print(f"results table written to {page}, section {args.section}")
     return code
 

@@ -14,7 +14,6 @@ design map's.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import os
@@ -23,6 +22,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import page_parser  # noqa: E402
 from path import replace_section  # noqa: E402
 
 #: MPa -> kPa
@@ -49,11 +49,7 @@ def table(out: Path) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("design")
-    parser.add_argument("-o", "--out", required=True)
-    parser.add_argument("--section", required=True, help="the page's section: <!-- design_map.py: NAME -->")
-    parser.add_argument("--page", default=str(Path(__file__).resolve().parents[1] / "docs" / "assess.md"))
+    parser = page_parser(__doc__, "design_map.py")
     args, rest = parser.parse_known_args(argv)
     from hydrojam.actuator.design import apply_overrides, load_design
     from hydrojam.actuator.provenance import source_provenance
