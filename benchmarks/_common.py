@@ -6,6 +6,7 @@ import argparse
 import os
 import platform
 import statistics
+import sys
 import time
 from collections.abc import Callable, Sequence
 from importlib import metadata
@@ -126,3 +127,25 @@ def page_parser(doc: str, tag: str) -> argparse.ArgumentParser:
     parser.add_argument("--section", required=True, help=f"the page's section: <!-- {tag}: NAME -->")
     parser.add_argument("--page", default=str(Path(__file__).resolve().parents[1] / "docs" / "assess.md"))
     return parser
+
+
+def measured_by(script: str, argv: Sequence[str] | None) -> str:
+    """The head of a table's line of conditions: "Measured by `benchmarks/SCRIPT ARGS`: code of
+    `abc1234` [(with local changes)], N cores, T solver thread(s) a run" (``argv`` None: this
+    process's arguments)."""
+    from hydrojam.actuator.provenance import source_provenance
+
+    src = source_provenance()
+    commit = src["commit"][:7] if src["commit"] != "unknown" else "unknown"
+    threads = os.environ.get("HYDROJAM_SOLVER_THREADS", "1")
+    command = f"benchmarks/{script} " + " ".join(sys.argv[1:] if argv is None else argv)
+    return (f"Measured by `{command}`: code of `{commit}`{' (with local changes)' if src['dirty'] is True else ''}, "
+            f"{os.cpu_count()} cores, {threads} solver thread(s) a run")
+
+
+def write_section(page: str | os.PathLike, tag: str, name: str, text: str) -> None:
+    """Replace the section '<!-- TAG: NAME -->' of the Markdown ``page`` by ``text`` (path.replace_section)."""
+    from path import replace_section
+
+    page = Path(page)
+    page.write_text(replace_section(page.read_text(encoding="utf-8"), name, text, tag=tag), encoding="utf-8")

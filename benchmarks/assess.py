@@ -13,14 +13,12 @@ active particles, vacuum and pneumatic side by side. Exit status: the assessment
 from __future__ import annotations
 
 import json
-import os
 import sys
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import page_parser  # noqa: E402
-from path import replace_section  # noqa: E402
+from _common import measured_by, page_parser, write_section  # noqa: E402
 
 #: (key, label, unit in 2D, unit in 3D): the rows of the table
 ROWS = (
@@ -109,7 +107,6 @@ def main(argv: list[str] | None = None) -> int:
                         help="write the table of the assessment already in OUT (its own wall time) instead of running it")
     args, rest = parser.parse_known_args(argv)
     from hydrojam.actuator.design import load_design
-    from hydrojam.actuator.provenance import source_provenance
     from hydrojam.cli import main as hydrojam
 
     out = Path(args.out)
@@ -123,22 +120,14 @@ def main(argv: list[str] | None = None) -> int:
     if not (out / "assessment.json").is_file():
         return code
     design = load_design(out / "design.toml")
-    src = source_provenance()
-    commit = src["commit"][:7] if src["commit"] != "unknown" else "unknown"
-    threads = os.environ.get("HYDROJAM_SOLVER_THREADS", "1")
-    command = "benchmarks/assess.py " + " ".join(sys.argv[1:] if argv is None else argv)
     three_d = design.dimension == 3
     model = ("3D half model, forces and stiffnesses of the whole actuator" if three_d and design.mesh.symmetry
              else ("3D" if three_d else "2D, per mm of depth"))
-    text = "\n".join([f"Measured by `{command}`: code of `{commit}`"
-                      f"{' (with local changes)' if src['dirty'] is True else ''}, {os.cpu_count()} cores, "
-                      f"{threads} solver thread(s) a run, mesh {design.mesh_size:g} mm ({model}), "
+    text = "\n".join([f"{measured_by('assess.py', argv)}, mesh {design.mesh_size:g} mm ({model}), "
                       f"friction {design.friction:g}, wall {wall:.0f} s"
                       f"{'' if args.no_run else f', exit {code}'}.", "", *table(out, three_d), *cost_table(out)])
-    page = Path(args.page)
-    page.write_text(replace_section(page.read_text(encoding="utf-8"), args.section, text, tag="assess.py"),
-                    encoding="utf-8")
-    print(f"results table written to {page}, section {args.section}")
+    write_section(args.page, "assess.py", args.section, text)
+    print(f"results table written to {args.page}, section {args.section}")
     return code
 
 

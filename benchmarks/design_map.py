@@ -16,14 +16,12 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 import sys
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import page_parser  # noqa: E402
-from path import replace_section  # noqa: E402
+from _common import measured_by, page_parser, write_section  # noqa: E402
 
 #: MPa -> kPa
 KPA = 1000.0
@@ -52,7 +50,6 @@ def main(argv: list[str] | None = None) -> int:
     parser = page_parser(__doc__, "design_map.py")
     args, rest = parser.parse_known_args(argv)
     from hydrojam.actuator.design import apply_overrides, load_design
-    from hydrojam.actuator.provenance import source_provenance
     from hydrojam.cli import main as hydrojam
 
     out = Path(args.out)
@@ -62,24 +59,16 @@ def main(argv: list[str] | None = None) -> int:
     if not (out / "design_map.csv").is_file():
         return code
     design = load_design(args.design)
-    src = source_provenance()
-    commit = src["commit"][:7] if src["commit"] != "unknown" else "unknown"
-    threads = os.environ.get("HYDROJAM_SOLVER_THREADS", "1")
-    command = "benchmarks/design_map.py " + " ".join(sys.argv[1:] if argv is None else argv)
     sets = [rest[i + 1] for i, a in enumerate(rest[:-1]) if a == "--set"]
     design = apply_overrides(design, sets)  # the mesh and layers the map ran with
     compute = sum(json.loads(f.read_text(encoding="utf-8")).get("point_time_s") or 0.0
                   for f in (out / "points").glob("*/point.json"))
-    text = "\n".join([f"Measured by `{command}`: code of `{commit}`"
-                      f"{' (with local changes)' if src['dirty'] is True else ''}, {os.cpu_count()} cores, "
-                      f"{threads} solver thread(s) a run, {design.dimension}D, {design.particle_layers} particle "
+    text = "\n".join([f"{measured_by('design_map.py', argv)}, {design.dimension}D, {design.particle_layers} particle "
                       f"layer(s), mesh {design.mesh_size:g} mm, friction {design.friction:g}, points' compute "
                       f"{compute:.0f} s summed, wall {wall:.0f} s (points already in OUT load instead of running), "
                       f"exit {code}.", "", *table(out)])
-    page = Path(args.page)
-    page.write_text(replace_section(page.read_text(encoding="utf-8"), args.section, text, tag="design_map.py"),
-                    encoding="utf-8")
-    print(f"design map table written to {page}, section {args.section}")
+    write_section(args.page, "design_map.py", args.section, text)
+    print(f"design map table written to {args.page}, section {args.section}")
     return code
 
 
