@@ -265,14 +265,14 @@ DISAGREEMENT_REASONS_3D: dict[str, str] = {
     "T-dx-dominant": "measured: it agrees with the elastomer 2x stiffer and disagrees at friction 0, 0.01, 0.1 and 0.3: "
                      "how much of the spheres' swelling goes into the chamber's length (δz) is set by the "
                      "membrane's stiffness.",
-    "PL-angle": "likely the soft membrane (G = 0.023 MPa, about 10x softer than the gel): a long chamber's spheres "
-                "can bulge it into a wider cluster instead of pushing along the axis, and the end states of long "
-                "chambers are path dependent.",
+    "PL-angle": "measured (one run a point past 5 layers): the column folds once or twice and keeps curling as "
+                "layers are added, so θ still rises past 9 layers instead of peaking there.",
     "PL-curling": "likely the curling index's definition (share of rotation in the clamp half) versus the paper's "
                   "curling judged by eye.",
-    "PL-dx": "likely the path dependence of long chambers and a membrane bulging round the spheres (the tip can "
-             "rise and move little sideways).",
-    "PL-dz": "likely a chamber that bulges and shortens instead of bending: its tip moves up, not down.",
+    "PL-dx": "measured (one run a point past 5 layers): a column curled past three quarters of a turn brings its tip "
+             "back toward the clamp, so |δx| does not level off past 9 layers.",
+    "PL-dz": "measured (one run a point past 5 layers): the curl keeps lifting the tip as layers are added, so |δz| "
+             "still rises past 7 layers.",
     "h-angle": "measured: read as a thickness, a thicker layer resists the folded column's push more and θ falls "
                "(every run folded); read as the strip's width, θ rises from 4 to 10 mm as the paper's does.",
     "h-displacement": "measured: read as a thickness the tip's |δx| and |δz| fall from 4 to 10 mm with the angle; "
