@@ -140,6 +140,34 @@ def test_table_of_replicated_points():
     assert r275["error"] == "replica 2: early; replica 3: not finished: s = 0.500 reached"
 
 
+def test_a_states_table_keeps_a_point_with_replicas_not_finished_unfinished(tmp_path):
+    """state_tables: a point with one replica folded and two not started is, in the folded table,
+    unfinished with that run (it reads as "1 of 3 runs"), and unfinished in the arc table, since
+    the others may still end in either state; a finished point with no run in a state is left out."""
+    from hydrojam.paper._rows import partial_runs
+    from hydrojam.study.cache import write_record
+    from hydrojam.study.table import state_tables
+
+    study = study_from_dict({"name": "st", "design": {**TINY, "replicas": {"count": 3}},
+                             "sweep": [{"name": "temperature", "vary": {"stimulus.temperature": [275, 285]}}]})
+    for p in study.points():
+        T = p.design.stimulus.temperature
+        if T == 285 and p.replica > 0:
+            continue  # not started
+        folds = 1 if T == 285 else 0
+        m = {"bending_angle_deg": 100.0 + p.replica, "column_folds": folds, "converged": True}
+        write_record(tmp_path / "points" / p.key, {"status": "ok", "metrics": m, "wall_time_s": 1.0})
+    tables = state_tables(study, tmp_path)
+    assert set(tables) == {"arc", "folded"}
+    arc275, arc285 = tables["arc"].rows
+    assert arc275["status"] == "ok" and arc275["replicas_used"] == 3
+    assert arc285["status"] == "unfinished" and partial_runs(arc285) is None  # no arc run yet, two to come
+    fold275, fold285 = tables["folded"].rows
+    assert fold275["status"] == "failed" and fold275["error"].startswith("no replica in state")
+    assert fold285["status"] == "unfinished" and partial_runs(fold285) == "1 of 3 runs"
+    assert fold285["bending_angle_deg"] == 100.0
+
+
 # -------------------------------------------------------------------- runs
 
 

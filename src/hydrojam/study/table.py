@@ -208,7 +208,8 @@ def build_table(study: Study, records: dict[str, dict], state: str | None = None
     every finished run (:mod:`hydrojam.study.states`): one state, or each with its runs.
 
     With ``state`` ("arc", "folded", "multi-folded"), the table of that state alone: each point's statistics over
-    its replicas in that state, and a point with none failed ("no replica in state ...").
+    its replicas in that state, and a point with none failed ("no replica in state ..."); a point with
+    replicas not finished stays unfinished (they may still end in the state).
     """
     varied = study.varied_fields()
     replicated = study.replicas > 1
@@ -222,8 +223,9 @@ def build_table(study: Study, records: dict[str, dict], state: str | None = None
         p = points[0]
         recs = [records.get(q.key) or {"status": PointStatus.FAILED, "error": "no outcome recorded"} for q in points]
         counts = state_counts([state_of(r.get("metrics")) for r in recs if r.get("status") in FINISHED])
-        if state is not None:
-            kept = [(q, r) for q, r in zip(points, recs) if state_of(r.get("metrics")) == state]
+        if state is not None:  # a replica not finished yet may still end in the state: it stays
+            kept = [(q, r) for q, r in zip(points, recs)
+                    if state_of(r.get("metrics")) == state or r.get("status") == PointStatus.UNFINISHED]
             recs = [r for _, r in kept] or [{"status": PointStatus.FAILED, "error": f"{NOT_IN_STATE} {state}"}]
             points = [q for q, _ in kept] or points[:1]
         row = _point_row(p, varied)
@@ -344,7 +346,8 @@ def run_states(out: str | os.PathLike, table: SweepTable) -> dict[str, str]:
 def state_tables(study: Study, out: str | os.PathLike) -> dict[str, SweepTable]:
     """One table per state that any finished run of ``study`` in ``out`` reached
     (:func:`build_table` with ``state``), read from the points' records; empty where no run has a
-    state (records without ``column_folds``). Nothing is written.
+    state (records without ``column_folds``). A point with runs not finished (or not started) stays
+    unfinished in every state's table. Nothing is written.
 
     Parameters
     ----------
@@ -358,10 +361,13 @@ def state_tables(study: Study, out: str | os.PathLike) -> dict[str, SweepTable]:
     dict of str to SweepTable
         State -> its table, in the order of :data:`hydrojam.study.states.STATES`.
     """
-    records = {}
+    records, finished = {}, []
     for p in study.points():
         rec = read_record(Path(out) / "points" / p.key)
         if rec is not None and rec.get("status") in FINISHED:
             records[p.key] = rec
-    seen = state_counts([state_of(r.get("metrics")) for r in records.values()])
+            finished.append(rec)
+        elif rec is None or rec.get("status") != PointStatus.FAILED:  # it may still end in any state
+            records[p.key] = {"status": PointStatus.UNFINISHED, "error": "not finished"}
+    seen = state_counts([state_of(r.get("metrics")) for r in finished])
     return {state: build_table(study, records, state) for state in seen}
