@@ -258,11 +258,14 @@ DISAGREEMENT_REASONS_3D: dict[str, str] = {
     "T-angle": "measured: the most swollen column folds (every run at 275 K) and a folded column bends less than "
                "an arc (every run at 295 K); within each state θ falls as T rises. With friction 0.1 or 0.3 no run "
                "folds and the statement agrees (docs/reproduce.md, Sensitivity).",
-    "T-displacement": "measured: no model choice tried (friction 0, 0.01, 0.1, 0.3; the elastomer 2x stiffer) "
-                      "reproduces it; a column bent past 90° turns its tip back up, so |δx| and |δz| do not follow θ.",
-    "T-linear": "measured: no model choice tried (friction 0, 0.01, 0.1, 0.3; the elastomer 2x stiffer) reproduces "
-                "it; the change of state between temperatures (fold or arc) makes the tip's path non-linear in T.",
-    "T-dx-dominant": "measured: it agrees with the elastomer 2x stiffer and disagrees at friction 0, 0.01, 0.1 and 0.3: "
+    "T-displacement": "measured: no model choice tried (friction 0, 0.01, 0.1, 0.3; the elastomer 0.5x and 2x as "
+                      "stiff) reproduces it; a column bent past 90° turns its tip back up, so |δx| and |δz| do not "
+                      "follow θ.",
+    "T-linear": "measured: no model choice tried (friction 0, 0.01, 0.1, 0.3; the elastomer 0.5x and 2x as stiff) "
+                "reproduces it; the change of state between temperatures (fold or arc) makes the tip's path "
+                "non-linear in T.",
+    "T-dx-dominant": "measured: it agrees with the elastomer 2x stiffer and disagrees at 0.5x and at friction 0, 0.01, 0.1 "
+                     "and 0.3: "
                      "how much of the spheres' swelling goes into the chamber's length (δz) is set by the "
                      "membrane's stiffness.",
     "PL-angle": "measured (one run a point past 5 layers): the column folds once or twice and keeps curling as "
