@@ -264,17 +264,16 @@ DISAGREEMENT_REASONS_3D: dict[str, str] = {
     "T-linear": "measured: no model choice tried (friction 0, 0.01, 0.1, 0.3; the elastomer 0.5x and 2x as stiff) "
                 "reproduces it; the change of state between temperatures (fold or arc) makes the tip's path "
                 "non-linear in T.",
-    "T-dx-dominant": "measured: it agrees with the elastomer 2x stiffer and disagrees at 0.5x and at friction 0, 0.01, 0.1 "
-                     "and 0.3: "
-                     "how much of the spheres' swelling goes into the chamber's length (δz) is set by the "
-                     "membrane's stiffness.",
-    "PL-angle": "measured (one run a point past 5 layers): the column folds once or twice and keeps curling as "
+    "T-dx-dominant": "measured: it agrees with the elastomer 2x stiffer and disagrees at 0.5x and at friction 0, "
+                     "0.01, 0.1 and 0.3: how much of the spheres' swelling goes into the chamber's length (δz) is "
+                     "set by the membrane's stiffness.",
+    "PL-angle": "measured (the layer runs finished so far): the column folds once or twice and keeps curling as "
                 "layers are added, so θ still rises past 9 layers instead of peaking there.",
     "PL-curling": "likely the curling index's definition (share of rotation in the clamp half) versus the paper's "
                   "curling judged by eye.",
-    "PL-dx": "measured (one run a point past 5 layers): a column curled past three quarters of a turn brings its tip "
+    "PL-dx": "measured (the layer runs finished so far): a column curled past three quarters of a turn brings its tip "
              "back toward the clamp, so |δx| does not level off past 9 layers.",
-    "PL-dz": "measured (one run a point past 5 layers): the curl keeps lifting the tip as layers are added, so |δz| "
+    "PL-dz": "measured (the layer runs finished so far): the curl keeps lifting the tip as layers are added, so |δz| "
              "still rises past 7 layers.",
     "h-angle": "measured: read as a thickness, a thicker layer resists the folded column's push more and θ falls "
                "(every run folded); read as the strip's width, θ rises from 4 to 10 mm as the paper's does.",
