@@ -45,7 +45,7 @@ from dataclasses import dataclass, field as _field
 import numpy as np
 
 from hydrojam.actuator.metrics import metric
-from hydrojam.paper._rows import fmt_param, number, point_status, rows_of
+from hydrojam.paper._rows import fmt_param, number, partial_runs, point_status, rows_of
 from hydrojam.paper.study import PaperSweep, paper_sweep, paper_sweeps
 from hydrojam.study.cache import PointStatus
 from hydrojam.study.table import NOT_IN_STATE
@@ -533,9 +533,9 @@ def _series(rows: Sequence[dict], sweep: PaperSweep, key: str, magnitude: bool, 
             continue
         requested.append(p)
         status, v = point_status(row), number(row.get(key))
-        used, planned = number(row.get("replicas_used")), number(row.get("replicas"))
-        if status == PointStatus.UNFINISHED and used and v is not None:
-            partial[p] = f"{used:g} of {planned:g} runs"
+        used, part = number(row.get("replicas_used")), partial_runs(row)
+        if part and v is not None:
+            partial[p] = part
             status = PointStatus.OK
         if status == PointStatus.FAILED:
             problems[p] = "failed"  # its error is in the report's table of points

@@ -13,8 +13,8 @@ from hydrojam._version import __version__
 from hydrojam._format import duration
 from hydrojam._io import write_text_atomic
 from hydrojam.actuator.design import Design
-from hydrojam.paper._rows import (cell, cell_pm, fmt_param, number, partial_runs, point_status, rows_of, sorted_by,
-                                  truthy)
+from hydrojam.paper._rows import (cell, cell_pm, fmt_param, number, point_status, rows_of, sorted_by, truthy,
+                                  without_result)
 from hydrojam.paper.claims import (
     ANGLE_TOL,
     CURLING_MARGIN,
@@ -140,8 +140,7 @@ def _states_lines(table, states: dict, sweeps, results) -> list[str]:
             cells = []
             for n in names:
                 q = by_state[n].get(r.get("point"))
-                ok = q is not None and (point_status(q) in (PointStatus.OK, PointStatus.NOT_CONVERGED)
-                                        or partial_runs(q) is not None)
+                ok = q is not None and not without_result(q)
                 runs = _cell(q.get("replicas_used"), "{:.0f}") if ok and q.get("replicas_used") is not None else ("1" if ok else "0")
                 cells.append(f"{runs}, {_pm(q, 'bending_angle_deg')}" if ok else "0")
             L.append(f"| {sw.name} | {fmt_param(number(r.get(sw.field)), sw.unit)} | " + " | ".join(cells) + " |")

@@ -24,7 +24,8 @@ from pathlib import Path
 from hydrojam._io import write_text_atomic
 from hydrojam.actuator.design import Design
 from hydrojam.actuator.provenance import source_provenance
-from hydrojam.paper._rows import cell, cell_pm, fmt_param, number, partial_runs, point_status, rows_of, sorted_by
+from hydrojam.paper._rows import (cell, cell_pm, fmt_param, number, point_status, rows_of, sorted_by,
+                                  without_result)
 from hydrojam.paper.claims import PAPER_CLAIMS, ClaimResult, Verdict, check_state_claims
 from hydrojam.paper.study import VARIANT_SEPARATOR, paper_sweeps, reproduce_command, study_name
 from hydrojam.study.cache import PointStatus
@@ -108,8 +109,7 @@ def _state_cell(row: dict, states: dict) -> str:
     parts = []
     for name, table in states.items():
         mine = [r for r in rows_of(table, row.get("sweep")) if r.get("point") == row.get("point")]
-        if not mine or (point_status(mine[0]) not in (PointStatus.OK, PointStatus.NOT_CONVERGED)
-                        and not partial_runs(mine[0])):  # runs in the state, others still to finish
+        if not mine or without_result(mine[0]):  # a point with runs in the state, others to finish, counts
             continue
         n = int(number(mine[0].get("replicas_used")) or 1)
         parts.append((name, n, cell_pm(mine[0], "bending_angle_deg")))

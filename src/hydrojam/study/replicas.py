@@ -31,7 +31,7 @@ from pathlib import Path
 from hydrojam._io import finite_or_none, write_text_atomic
 from hydrojam.actuator.design import Design, with_replicas
 from hydrojam.actuator.metrics import STATE_METRICS, metric
-from hydrojam.study.cache import PointStatus
+from hydrojam.study.cache import PointStatus, read_record
 from hydrojam.study.spec import Study, SweepSpec
 from hydrojam.study.spread import Spread, spread
 from hydrojam.study.states import state_counts, states_text
@@ -225,10 +225,5 @@ def run_replicas(design: Design, out: str | os.PathLike, *, count: int | None = 
 def replica_records(out: Path, study: Study) -> dict[str, dict]:
     """The point.json of every run of ``study`` in the folder ``out``, by key (runs without one,
     unfinished or missing, left out)."""
-    records = {}
-    for p in study.points():
-        try:
-            records[p.key] = json.loads((out / "points" / p.key / "point.json").read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            continue
-    return records
+    records = {p.key: read_record(Path(out) / "points" / p.key) for p in study.points()}
+    return {key: rec for key, rec in records.items() if rec is not None}

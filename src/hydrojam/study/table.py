@@ -361,13 +361,12 @@ def state_tables(study: Study, out: str | os.PathLike) -> dict[str, SweepTable]:
     dict of str to SweepTable
         State -> its table, in the order of :data:`hydrojam.study.states.STATES`.
     """
-    records, finished = {}, []
+    records = {}
     for p in study.points():
         rec = read_record(Path(out) / "points" / p.key)
         if rec is not None and rec.get("status") in FINISHED:
             records[p.key] = rec
-            finished.append(rec)
         elif rec is None or rec.get("status") != PointStatus.FAILED:  # it may still end in any state
             records[p.key] = {"status": PointStatus.UNFINISHED, "error": "not finished"}
-    seen = state_counts([state_of(r.get("metrics")) for r in finished])
+    seen = state_counts([state_of(r.get("metrics")) for r in records.values()])  # unfinished: no state
     return {state: build_table(study, records, state) for state in seen}
