@@ -144,8 +144,11 @@ def measured_by(script: str, argv: Sequence[str] | None) -> str:
 
 
 def write_section(page: str | os.PathLike, tag: str, name: str, text: str) -> None:
-    """Replace the section '<!-- TAG: NAME -->' of the Markdown ``page`` by ``text`` (path.replace_section)."""
+    """Replace the section '<!-- TAG: NAME -->' of the Markdown ``page`` by ``text`` (path.replace_section),
+    writing the page atomically."""
     from path import replace_section
 
+    from hydrojam._io import write_text_atomic
+
     page = Path(page)
-    page.write_text(replace_section(page.read_text(encoding="utf-8"), name, text, tag=tag), encoding="utf-8")
+    write_text_atomic(page, replace_section(page.read_text(encoding="utf-8"), name, text, tag=tag))

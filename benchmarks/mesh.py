@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from path import replace_section  # noqa: E402
+from _common import write_section  # noqa: E402
 
 #: the compared metrics: (column of replicas.csv, label, format)
 METRICS = (("bending_angle_deg", "θ [deg]", "{:.2f}"), ("tip_dx_mm", "δx [mm]", "{:.1f}"),
@@ -204,11 +204,7 @@ def main(argv=None) -> int:
     out = "\n\n".join([conditions, text, verdict])
     print(out)
     if args.markdown:
-        page = Path(args.markdown)
-        new = replace_section(page.read_text(encoding="utf-8"), args.section or "mesh", out, tag="mesh.py")
-        from hydrojam._io import write_text_atomic
-
-        write_text_atomic(page, new)
+        write_section(args.markdown, "mesh.py", args.section or "mesh", out)
     return 0 if all(math.isfinite(s.size) for s in sizes) else 1
 
 

@@ -27,7 +27,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _common import _version, print_environment
+from _common import _version, print_environment, write_section
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
@@ -193,15 +193,6 @@ def markdown(rows: list[list[str]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def replace_section(page: str, name: str, text: str) -> str:
-    """``page`` with the lines between '<!-- pictures.py: NAME -->' and its closing marker replaced."""
-    begin, end = f"<!-- pictures.py: {name} -->", f"<!-- /pictures.py: {name} -->"
-    i, j = page.find(begin), page.find(end)
-    if i < 0 or j < i:
-        raise ValueError(f"no section {begin} ... {end} in the page")
-    return page[: i + len(begin)] + "\n" + text.rstrip("\n") + "\n" + page[j:]
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("outs", type=Path, nargs="*", help="finished runs' folders (2D or 3D)")
@@ -215,9 +206,7 @@ def main() -> None:
     text = markdown(rows)
     print(text)
     if args.markdown:
-        page = Path(args.markdown)
-        section = "study" if args.study else "costs"
-        page.write_text(replace_section(page.read_text(encoding="utf-8"), section, text), encoding="utf-8")
+        write_section(args.markdown, "pictures.py", "study" if args.study else "costs", text)
 
 
 if __name__ == "__main__":
