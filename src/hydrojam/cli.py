@@ -825,7 +825,7 @@ def reproduce(
     replicas: int = typer.Option(1, "--replicas", help="Replicas per point: the table and figures give their mean and spread, and a statement agrees or disagrees only beyond the spread."),
     report_only: bool = typer.Option(False, "--report-only", help="Run nothing: the table, figures and report.md of the points finished in OUT so far, the others shown as not finished (an interim report of a study in progress)."),
     overrides: list[str] = typer.Option([], "--set", help="Change a model choice for every point, e.g. --set friction=0.1 (repeatable): a study of its own, for its own output folder (docs/reproduce.md, \"Sensitivity\")."),
-    write_results: list[Path] = typer.Option([], "--write-results", help="A Markdown page whose marked sections take the results: '<!-- reproduce: STUDY -->' the points table with a line of conditions, 'STUDY verdicts', 'STUDY time' the cost, 'STUDY compare' the 2D-against-3D verdicts (with --compare-2d), 'KIND sensitivity' one row per model choice (repeatable; e.g. README.md, docs/reproduce.md)."),
+    write_results: list[Path] = typer.Option([], "--write-results", help="A Markdown page whose marked sections take the results: '<!-- reproduce: STUDY -->' the points table with a line of conditions, 'STUDY verdicts', 'STUDY time' the cost, 'STUDY compare' the 2D-against-3D verdicts (with --compare-2d), 'STUDY figures' the trend figures (copied into _static/STUDY/ beside the page), 'KIND sensitivity' one row per model choice (repeatable; e.g. README.md, docs/reproduce.md)."),
 ) -> None:
     """Reproduce the paper's Section IV (2D, or 3D with --dimension 3): the temperature,
     particle-layer and strain-limit thickness sweeps (in 3D also the strip width), their figures and

@@ -25,6 +25,27 @@ def test_plot_shapes_and_trends(study_dir, tmp_path):
     assert (tmp_path / "broken.png").read_bytes()[:8] == PNG_MAGIC
 
 
+def test_the_trends_draw_each_state_where_the_runs_reach_several(study_dir, tmp_path):
+    """state_series gives each state's θ (mean, std) at the points with a run in it, and nothing
+    for a sweep whose runs reach one state; plot_trends draws them."""
+    from hydrojam.paper._rows import without_result
+
+    _, table = study_dir
+    rows = [r for r in table.select("temperature") if not without_result(r)]
+    assert len(rows) >= 2
+    arc = [dict(r, bending_angle_deg=100.0 + k, bending_angle_deg_std=0.5) for k, r in enumerate(rows)]
+    folded = [dict(rows[0], bending_angle_deg=60.0, bending_angle_deg_std=None)]
+    series = pfigures.state_series({"arc": arc, "folded": folded}, "stimulus.temperature")
+    temps = sorted(r["stimulus.temperature"] for r in rows)
+    assert series["arc"] == (temps, [100.0 + k for k in range(len(rows))], [0.5] * len(rows))
+    assert series["folded"] == ([rows[0]["stimulus.temperature"]], [60.0], [0.0])
+    assert pfigures.state_series({"arc": arc}, "stimulus.temperature") == {}
+    assert pfigures.state_series({"arc": arc, "folded": []}, "stimulus.temperature") == {}
+    pfigures.plot_trends(rows, "stimulus.temperature", tmp_path / "trends.png", "temperature T", "K",
+                         states={"arc": arc, "folded": folded})
+    assert (tmp_path / "trends.png").read_bytes()[:8] == PNG_MAGIC
+
+
 def test_read_shape_moves_reference_points_by_displacement(tmp_path):
     """A VTU in results.write_vtu's layout (reference points + displacement) is read as deformed,
     with the reference points' bounding box as the undeformed outline."""

@@ -165,11 +165,18 @@ def test_reproduce_3d_from_cached_points_with_the_2d_comparison(tmp_path):
     page = tmp_path / "page.md"
     page.write_text("# p\n<!-- reproduce: paper-3d-quick -->\n<!-- /reproduce: paper-3d-quick -->\n"
                     "<!-- reproduce: paper-3d-quick time -->\n<!-- /reproduce: paper-3d-quick time -->\n"
-                    "<!-- reproduce: paper-3d-quick compare -->\n<!-- /reproduce: paper-3d-quick compare -->\n",
+                    "<!-- reproduce: paper-3d-quick compare -->\n<!-- /reproduce: paper-3d-quick compare -->\n"
+                    "<!-- reproduce: paper-3d-quick figures -->\n<!-- /reproduce: paper-3d-quick figures -->\n",
                     encoding="utf-8")
     assert main(["reproduce", "--dimension", "3", "--quick", "-o", str(three), "--quiet",
                  "--compare-2d", str(two), "--write-results", str(page)]) == 0
     written = page.read_text(encoding="utf-8")
+    # the page's figures: each sweep's trends figure, copied beside the page and linked from it
+    shown = sorted(p.name for p in (tmp_path / "_static" / "paper-3d-quick").iterdir())
+    assert shown == sorted(f"{sw.name}_trends.png" for sw in pstudy.paper_sweeps(3))
+    for name in shown:
+        assert (tmp_path / "_static" / "paper-3d-quick" / name).read_bytes() == (three / "figures" / name).read_bytes()
+        assert f"](_static/paper-3d-quick/{name})" in written.split("<!-- reproduce: paper-3d-quick figures -->")[1]
     assert "Conditions: `hydrojam reproduce --dimension 3 --quick`" in written and "15 of 15 runs finished" in written
     assert "| strain_limit_width | 12 mm |" in written and "| paper-3d-quick | claims |" in written
     cost = written.split("<!-- reproduce: paper-3d-quick time -->")[1]

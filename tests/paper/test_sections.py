@@ -135,3 +135,33 @@ def test_the_table_of_verdict_against_choice_keeps_a_row_per_study(study_dir, tm
     # one state: the verdict alone
     single = row([], {"arc": replicated}).split(" | ")
     assert single[3] == str(by_id[ids[0]].verdict)
+
+
+def test_the_figure_section_shows_the_study_figures_beside_the_page(tmp_path):
+    """write_figure_section copies each figure into _static/NAME/ beside the page, links it with its
+    caption, removes a copy no longer the study's; a page without the section gets nothing."""
+    figures = []
+    for k, stem in enumerate(("temperature_trends", "particle_layers_trends")):
+        source = tmp_path / "out" / "figures" / f"{stem}.png"
+        source.parent.mkdir(parents=True, exist_ok=True)
+        source.write_bytes(bytes([137, 80, 78, 71, k]))
+        figures.append((f"caption {k}", source))
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    page = docs / "page.md"
+    page.write_text("# p\n\nBefore.\n<!-- reproduce: s figures -->\nold\n<!-- /reproduce: s figures -->\nAfter.\n",
+                    encoding="utf-8")
+    stale = docs / "_static" / "s" / "strain_limit_thickness_trends.png"
+    stale.parent.mkdir(parents=True)
+    stale.write_bytes(b"old")
+    written = psections.write_figure_section(page, "s", figures)
+    assert [p.name for p in written] == ["temperature_trends.png", "particle_layers_trends.png"]
+    assert all(copy.read_bytes() == source.read_bytes() for copy, (_, source) in zip(written, figures))
+    assert not stale.exists()
+    assert page.read_text(encoding="utf-8") == (
+        "# p\n\nBefore.\n<!-- reproduce: s figures -->\n![caption 0](_static/s/temperature_trends.png)\n\n"
+        "![caption 1](_static/s/particle_layers_trends.png)\n<!-- /reproduce: s figures -->\nAfter.\n")
+    other = tmp_path / "other.md"
+    other.write_text(PAGE, encoding="utf-8")
+    assert psections.write_figure_section(other, "s", figures) == []
+    assert other.read_text(encoding="utf-8") == PAGE and not (tmp_path / "_static").exists()

@@ -26,7 +26,8 @@ from hydrojam.paper._rows import (drawn_angle, drawn_row, fmt_param, number, par
 from hydrojam.paper.study import PAPER_SWEEPS, PaperSweep, sweep_of_field
 from hydrojam.study.cache import PointStatus
 
-__all__ = ["DPI", "SHAPES_MAX_COLUMNS", "figure_names", "plot_shapes", "plot_trends", "write_figures"]
+__all__ = ["DPI", "SHAPES_MAX_COLUMNS", "figure_names", "plot_shapes", "plot_trends", "state_series",
+           "write_figures"]
 
 _COLOURS = {"membrane": "0.82", "strain_limit": "0.45", "particle": "#3ba7d6"}
 SHAPES_MAX_COLUMNS = 5
@@ -411,8 +412,40 @@ def _plot_renders(out: Path, rows: Sequence[dict], param: str, path, symbol: str
     return True
 
 
+def state_series(states: dict | None, param: str) -> dict[str, tuple[list, list, list]]:
+    """Each state's θ against the parameter, where a sweep's runs reach two states or more.
+
+    Parameters
+    ----------
+    states : dict of str to sequence of dict, or None
+        State -> the sweep's rows of that state's runs alone
+        (:func:`hydrojam.study.table.state_tables`, selected to the sweep).
+    param : str
+        The dotted design field varied.
+
+    Returns
+    -------
+    dict of str to (list, list, list)
+        State -> the parameter values, the state's mean θ [deg] and its standard deviation [deg]
+        (0 for one run) at the points with a run in it; empty where fewer than two states occur.
+    """
+    series = {}
+    for state, rows in (states or {}).items():
+        xs, ys, err = [], [], []
+        for r in sorted_by(rows, param):
+            p, v = number(r.get(param)), number(r.get("bending_angle_deg"))
+            if p is None or v is None or without_result(r):
+                continue
+            xs.append(p)
+            ys.append(v)
+            err.append(number(r.get("bending_angle_deg_std")) or 0.0)
+        if xs:
+            series[state] = (xs, ys, err)
+    return series if len(series) > 1 else {}
+
+
 def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label: str, unit: str, *,
-                curling: bool | None = None) -> None:
+                curling: bool | None = None, states: dict | None = None) -> None:
     """Plot the bending angle and free-end displacement magnitudes |δx|, |δz| against the parameter
     (the paper's Figs. 7, 9, 11), and optionally the curling index.
 
@@ -436,6 +469,10 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
         The parameter's unit.
     curling : bool, optional
         Also the curling index [-] (default: for ``particle_layers``).
+    states : dict of str to sequence of dict, optional
+        State -> the sweep's rows of that state's runs alone: where the runs reach two states or
+        more, each state's mean θ (± its standard deviation) is drawn too, dashed
+        (:func:`state_series`), since the mean over all runs describes neither.
     """
     from matplotlib.lines import Line2D
 
@@ -477,6 +514,13 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
 
     any_hollow = draw(axes[0], *quantities[0][:2], "C0", "o", "θ")
     axes[0].set_ylabel(quantities[0][2])
+    by_state = state_series(states, param)
+    for k, (state, (xs, ys, err)) in enumerate(by_state.items()):
+        colour, marker = ("0.25", "0.55", "C5", "C6")[k % 4], ("v", "P", "X", "h")[k % 4]
+        axes[0].errorbar(xs, ys, yerr=err, color=colour, ls="--", lw=1.0, marker=marker, ms=5, capsize=2,
+                         label=f"{state} runs")
+    if by_state:
+        axes[0].legend(fontsize=8)
     any_hollow |= draw(axes[1], "tip_dx_mm", True, "C1", "s", "|δx| horizontal")
     any_hollow |= draw(axes[1], "tip_dz_mm", True, "C2", "^", "|δz| vertical")
     axes[1].set_ylabel("free-end displacement magnitude |δ| [mm]")
@@ -491,12 +535,15 @@ def plot_trends(rows: Sequence[dict], param: str, path: str | os.PathLike, label
     handles, _ = axes[1].get_legend_handles_labels()
     axes[1].legend(handles=handles + (notes if any_hollow else []), fontsize=8)
     if any_hollow and not curling:
-        axes[0].legend(handles=notes, fontsize=8)
+        handles, _ = axes[0].get_legend_handles_labels()
+        axes[0].legend(handles=handles + notes, fontsize=8)
     caption = ("|δx|, |δz|: magnitudes of the free-end displacement, as the paper plots them "
                "(signed in the report: δx < 0 toward the strain-limit layer, δz < 0 downward)")
     if replicas and max(replicas) > 1:
         caption += (f"\nmeans of {max(replicas):.0f} replicas per point; error bars ± one standard deviation, "
                     "bands the replicas' range")
+    if by_state:
+        caption += "\ndashed: θ of each state's runs alone (mean ± standard deviation), where the runs reach several"
     failed = [r for r in rows if point_status(r) == PointStatus.FAILED]
     sym, _, u = _sweep_for(param, label, unit)
     partial = [r for r in rows if partial_runs(r)]
@@ -530,8 +577,9 @@ def write_figures(out: str | os.PathLike, table, states: dict | None = None) -> 
     The figures are ``<sweep>_shapes.png`` (:func:`plot_shapes`) and ``<sweep>_trends.png``
     (:func:`plot_trends`); a sweep without rows is skipped. Where a sweep's runs reach two states
     or more, each state they reached also gets ``<sweep>_shapes_<state>.png``: every point drawn
-    as one replica in that state (a point with none says so); a state none reached, or a sweep's
-    only state, gets none (an earlier one is removed).
+    as one replica in that state (a point with none says so), and the trends figure draws each
+    state's θ beside the mean over all runs; a state none reached, or a sweep's only state, gets
+    none (an earlier one is removed).
 
     Parameters
     ----------
@@ -554,10 +602,10 @@ def write_figures(out: str | os.PathLike, table, states: dict | None = None) -> 
         if not rows:
             continue
         shapes, trends = (out / name for name in figure_names(sw))
-        plot_shapes(out, [drawn_row(out, r) for r in rows], sw.field, shapes)
-        plot_trends(rows, sw.field, trends, sw.label, sw.unit)
-        written += [shapes, trends]
         by_state = {state: rows_of(t, sw.name) for state, t in (states or {}).items()}
+        plot_shapes(out, [drawn_row(out, r) for r in rows], sw.field, shapes)
+        plot_trends(rows, sw.field, trends, sw.label, sw.unit, states=by_state)
+        written += [shapes, trends]
         reached = [state for state, r in by_state.items() if not all(without_result(x) for x in r)]
         for state, state_rows in by_state.items():
             path = out / state_figure_name(sw, state)

@@ -20,12 +20,13 @@ from pathlib import Path
 from hydrojam.paper.claims import check_claims
 from hydrojam.paper._rows import rows_of
 from hydrojam.paper.compare import comparison_lines, read_2d_results
-from hydrojam.paper.figures import write_figures
+from hydrojam.paper.figures import figure_names, write_figures
 from hydrojam.paper.page import write_report_page
 from hydrojam.paper.report import write_report
 from hydrojam.paper.sections import (check_page, compare_lines, results_lines, run_commits, sensitivity_row, time_lines,
-                                     verdict_lines, write_sections, write_sensitivity_row)
-from hydrojam.paper.study import paper_study
+                                     verdict_lines, write_figure_section, write_sections,
+                                     write_sensitivity_row)
+from hydrojam.paper.study import paper_study, paper_sweeps
 from hydrojam.study.sweep import PointOutcome, run_sweep
 from hydrojam.study.table import SweepTable, state_tables
 
@@ -130,7 +131,12 @@ def reproduce(out: str | os.PathLike, *, quick: bool = False, workers: int | Non
             compare = compare_lines(results, results_2d, comparison_lines(table, table_2d, study.base, quick=quick,
                                                                           out=out, source=compare_2d),
                                     str(compare_2d))
+        trends = [(f"{study.name}: θ and the free end's |δx|, |δz|"
+                   f"{' and the curling index' if sw.field == 'particle_layers' else ''} against the {sw.label} "
+                   f"(the paper's {sw.figures})", out / figure_names(sw)[1])
+                  for sw in paper_sweeps(dimension) if rows_of(table, sw.name)]
         for page in results_pages:
             write_sections(page, study.name, lines, verdict_lines(results, study.name), cost, compare)
             write_sensitivity_row(page, study.name, dimension, row)
+            write_figure_section(page, study.name, trends)
     return table, report

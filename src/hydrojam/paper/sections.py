@@ -9,7 +9,8 @@ line of conditions: command, commits, mesh, runs a point, friction, workers) and
 of the page as it was. The section ``KIND sensitivity`` (KIND the study's name without its model
 choices, ``paper-3d-quick``) is a table of verdict against model choice, a row per study of that
 kind: :func:`write_sensitivity_row` replaces the row of one study (``default`` or its ``--set``
-choices) and keeps the others'.
+choices) and keeps the others'. The section ``NAME figures`` shows the study's trend figures:
+:func:`write_figure_section` copies them beside the page (``_static/NAME/``) and links them.
 Units: K, mm, degrees, minutes.
 """
 
@@ -18,10 +19,11 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
-from hydrojam._io import write_text_atomic
+from hydrojam._io import atomic_path, write_text_atomic
 from hydrojam.actuator.design import Design
 from hydrojam.actuator.provenance import source_provenance
 from hydrojam.paper._rows import (cell, cell_pm, fmt_param, number, point_status, rows_of, sorted_by,
@@ -31,13 +33,16 @@ from hydrojam.paper.study import VARIANT_SEPARATOR, paper_sweeps, reproduce_comm
 from hydrojam.study.cache import PointStatus
 
 __all__ = ["SECTION_KINDS", "SectionError", "check_page", "compare_lines", "results_lines", "run_commits",
-           "sensitivity_row", "time_lines", "verdict_lines", "write_sections", "write_sensitivity_row"]
+           "sensitivity_row", "time_lines", "verdict_lines", "write_figure_section", "write_sections",
+           "write_sensitivity_row"]
 
 #: the sections a study can write on a page: "" (its points), " verdicts", " time", " compare"
 #: (a 3D study against its 2D peer)
 SECTION_KINDS = ("", " verdicts", " time", " compare")
 #: the section of verdict against model choice, after the study's kind ("paper-3d-quick sensitivity")
 SENSITIVITY = " sensitivity"
+#: the section of a study's trend figures, after its name ("paper-3d-quick figures")
+FIGURES = " figures"
 #: the first cell of the row of the study under the default model choices
 DEFAULT_CHOICE = "default"
 
@@ -456,3 +461,44 @@ def write_sensitivity_row(page: str | os.PathLike, name: str, dimension: int, ro
     body = "\n".join([_begin(section), *header, *(rows[k] for k in ordered), _end(section)])
     write_text_atomic(path, pattern.sub(lambda _: body, text))
     return True
+
+
+def write_figure_section(page: str | os.PathLike, name: str, figures: Sequence[tuple[str, Path]]) -> list[Path]:
+    """Show a study's figures on ``page``: where it holds the section ``NAME figures``, copy each
+    figure (atomically) into ``_static/NAME/`` beside the page, remove the files there that are no
+    longer the study's, and write the section: one image a figure, linked relative to the page.
+
+    Parameters
+    ----------
+    page : str or os.PathLike
+        A Markdown page.
+    name : str
+        The study's name.
+    figures : sequence of (str, Path)
+        Each figure's caption (the image's alternative text) and its file (a PNG the study wrote).
+
+    Returns
+    -------
+    list of Path
+        The copies written; empty where the page has no such section (nothing is written).
+    """
+    path = Path(page)
+    section = name + FIGURES
+    text = path.read_text(encoding="utf-8")
+    pattern = re.compile(re.escape(_begin(section)) + r"\n.*?" + re.escape(_end(section)), re.S)
+    if not pattern.search(text):
+        return []
+    folder = path.parent / "_static" / name
+    written, lines = [], []
+    for caption, source in figures:
+        target = folder / Path(source).name
+        with atomic_path(target) as tmp:
+            shutil.copyfile(source, tmp)
+        written.append(target)
+        lines += [f"![{caption}](_static/{name}/{target.name})", ""]
+    for old in folder.glob("*.png"):
+        if old not in written:
+            old.unlink()
+    body = "\n".join([_begin(section), *lines[:-1], _end(section)])
+    write_text_atomic(path, pattern.sub(lambda _: body, text))
+    return written
