@@ -257,22 +257,25 @@ DISAGREEMENT_REASONS_3D: dict[str, str] = {
     **DISAGREEMENT_REASONS,
     "T-angle": "measured: the most swollen column folds (every run at 275 K) and a folded column bends less than "
                "an arc (every run at 295 K); within each state θ falls as T rises. With friction 0.1 or 0.3 no run "
-               "folds and the statement agrees (docs/reproduce.md, Sensitivity).",
+               "folds and the statement agrees; the elastomer's stiffness and the clearance (0.05, 0.2 mm) only move "
+               "the temperature where the fold sets in (docs/reproduce.md, Sensitivity).",
     "T-displacement": "measured: no model choice tried (friction 0, 0.01, 0.1, 0.3; the elastomer 0.5x and 2x as "
-                      "stiff) reproduces it; a column bent past 90° turns its tip back up, so |δx| and |δz| do not "
-                      "follow θ.",
-    "T-linear": "measured: no model choice tried (friction 0, 0.01, 0.1, 0.3; the elastomer 0.5x and 2x as stiff) "
-                "reproduces it; the change of state between temperatures (fold or arc) makes the tip's path "
-                "non-linear in T.",
-    "T-dx-dominant": "measured: it agrees with the elastomer 2x stiffer and disagrees at 0.5x and at friction 0, "
-                     "0.01, 0.1 and 0.3: how much of the spheres' swelling goes into the chamber's length (δz) is "
-                     "set by the membrane's stiffness.",
-    "PL-angle": "measured (the layer runs finished so far): the column folds once or twice and keeps curling as "
-                "layers are added, so θ still rises past 9 layers instead of peaking there.",
-    "PL-curling": "likely the curling index's definition (share of rotation in the clamp half) versus the paper's "
-                  "curling judged by eye.",
+                      "stiff; the clearance 0.05 and 0.2 mm) reproduces it; a column bent past 90° turns its tip back "
+                      "up, so |δx| and |δz| do not follow θ.",
+    "T-linear": "measured: no model choice tried (friction 0, 0.01, 0.1, 0.3; the elastomer 0.5x and 2x as stiff; "
+                "the clearance 0.05 and 0.2 mm) reproduces it; the change of state between temperatures (fold or arc) "
+                "makes the tip's path non-linear in T.",
+    "T-dx-dominant": "measured: it agrees with the elastomer 2x stiffer and disagrees at 0.5x, at friction 0, 0.01, "
+                     "0.1 and 0.3 and at a clearance of 0.05 and 0.2 mm: how much of the spheres' swelling goes into "
+                     "the chamber's length (δz) is set by the membrane's stiffness.",
+    "PL-angle": "measured (the layer runs finished so far): the column folds once to five times and keeps curling as "
+                "layers are added, past a full turn at 19 layers, so θ still rises past 9 layers instead of peaking "
+                "there.",
+    "PL-curling": "measured (the layer runs finished so far): the curl spreads along the whole chamber at every length "
+                  "(curling index 0.50-0.64, no rise past 9 layers), so there is no transition to curling near the "
+                  "clamp.",
     "PL-dx": "measured (the layer runs finished so far): a column curled past three quarters of a turn brings its tip "
-             "back toward the clamp, so |δx| does not level off past 9 layers.",
+             "back toward the clamp and past it, so |δx| falls past 9 layers instead of levelling off.",
     "PL-dz": "measured (the layer runs finished so far): the curl keeps lifting the tip as layers are added, so |δz| "
              "still rises past 7 layers.",
     "h-angle": "measured: read as a thickness, a thicker layer resists the folded column's push more and θ falls "
