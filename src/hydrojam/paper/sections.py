@@ -59,6 +59,11 @@ def _end(name: str) -> str:
     return f"<!-- /reproduce: {name} -->"
 
 
+def _section(name: str) -> re.Pattern:
+    """The section ``name`` of a page, its markers included; group 1 its body."""
+    return re.compile(re.escape(_begin(name)) + r"\n(.*?)" + re.escape(_end(name)), re.S)
+
+
 def conditions_line(base: Design, quick: bool, replicas: int, workers: int | None, runs: tuple[int, int],
                     run_commits: tuple[str, ...] = (), overrides: Sequence[str] = ()) -> str:
     """One line of conditions: the command, the commits of the code that computed the runs (else
@@ -294,7 +299,7 @@ def write_sections(page: str | os.PathLike, name: str, table_lines: list[str], v
     written = []
     for section, lines in ((name, table_lines), (f"{name} verdicts", verdicts), (f"{name} time", time or []),
                            (f"{name} compare", compare)):
-        pattern = re.compile(re.escape(_begin(section)) + r"\n.*?" + re.escape(_end(section)), re.S)
+        pattern = _section(section)
         if lines is None:
             continue
         if pattern.search(text):
@@ -448,7 +453,7 @@ def write_sensitivity_row(page: str | os.PathLike, name: str, dimension: int, ro
     path = Path(page)
     text = path.read_text(encoding="utf-8")
     section = _kind(name) + SENSITIVITY
-    pattern = re.compile(re.escape(_begin(section)) + r"\n(.*?)" + re.escape(_end(section)), re.S)
+    pattern = _section(section)
     found = pattern.search(text)
     if not found:
         return False
@@ -485,7 +490,7 @@ def write_figure_section(page: str | os.PathLike, name: str, figures: Sequence[t
     path = Path(page)
     section = name + FIGURES
     text = path.read_text(encoding="utf-8")
-    pattern = re.compile(re.escape(_begin(section)) + r"\n.*?" + re.escape(_end(section)), re.S)
+    pattern = _section(section)
     if not pattern.search(text):
         return []
     folder = path.parent / "_static" / name
